@@ -1,0 +1,45 @@
+#pragma once
+// A tetrahedral mesh of one object, in the object's own (local) vertex numbering.
+// Layout follows design.md: interleaved xyz per vertex, four vertex indices per tet.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace softcontact {
+
+using index_t = std::int32_t;   ///< local index (vertex, tet, triangle) within one object or rank
+using gid_t = std::int64_t;     ///< global id: never changes, unique across the whole scene
+
+struct TetMesh {
+  std::vector<double> points;    ///< (n,3) interleaved x,y,z [m]
+  std::vector<index_t> tets;     ///< (m,4) vertex indices, positive orientation after validation
+
+  std::size_t num_vertices() const { return points.size() / 3; }
+  std::size_t num_tets() const { return tets.size() / 4; }
+};
+
+/// Signed volume of the tet (a,b,c,d): det[b-a, c-a, d-a] / 6. Positive orientation
+/// means (b-a) x (c-a) points towards d.
+double signed_tet_volume(const double* a, const double* b, const double* c, const double* d);
+
+/// What validation found and repaired (counts), for logs and tests.
+struct MeshReport {
+  std::size_t reoriented_tets = 0;           ///< inverted tets whose orientation was flipped
+  std::size_t unreferenced_vertices = 0;     ///< vertices no tet uses (removed)
+  std::vector<std::string> warnings;         ///< one line each, already naming the file
+};
+
+/// Checks a freshly read mesh and repairs what can be repaired, in place.
+///  - no tets, an index out of range, a repeated vertex in a tet, a non-finite coordinate,
+///    a degenerate tet (|volume| <= 1e-12 * (longest edge)^3): InputError naming `source`
+///    and the element (1-based, in file order; `element_ids` gives the file's own numbers
+///    when not empty);
+///  - inverted tets are reoriented (two vertices swapped) with a warning;
+///  - unreferenced vertices are removed (indices compacted) with a warning;
+///  - a boundary that is not closed (a boundary edge shared by other than two boundary
+///    triangles, or a face shared by more than two tets): InputError.
+MeshReport validate_mesh(TetMesh& mesh, const std::string& source,
+                         const std::vector<std::int64_t>& element_ids = {});
+
+}  // namespace softcontact
