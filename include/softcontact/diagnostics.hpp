@@ -1,0 +1,54 @@
+#pragma once
+// Per-step diagnostics: conserved and monitored quantities, reduced over ranks in an
+// order fixed by object index (so the numbers do not depend on the rank count), and the
+// diagnostics CSV that rank 0 writes (columns documented in docs/output-format.md).
+#include <mpi.h>
+
+#include <array>
+#include <cstdint>
+#include <fstream>
+#include <string>
+
+#include "softcontact/scene.hpp"
+#include "softcontact/world.hpp"
+
+namespace softcontact {
+
+/// Wall-clock seconds spent in each phase of Algorithm 1 (method.md), per step.
+struct PhaseTimes {
+  double forces = 0, integrate = 0, detect = 0, depth = 0, contact = 0, comm = 0, output = 0;
+  PhaseTimes& operator+=(const PhaseTimes& o);
+  PhaseTimes scaled(double s) const;
+  double total() const { return forces + integrate + detect + depth + contact + comm + output; }
+};
+
+struct StepDiagnostics {
+  std::int64_t step = 0;
+  double time = 0;
+  double kinetic_energy = 0;     ///< sum 1/2 m |v|^2 over movable vertices [J]
+  double elastic_energy = 0;     ///< sum of the models' strain energies [J]
+  double potential_energy = 0;   ///< - sum m g . x over movable vertices [J]
+  Vec3 momentum{};               ///< sum m v over movable vertices [kg m/s]
+  std::int64_t contacts = 0;     ///< colliding points this step
+  double residual_penetration = 0;  ///< largest remaining depth / median edge length
+  double contact_force_balance = 0; ///< |sum F| / sum |F| over contact forces
+  PhaseTimes seconds;            ///< mean seconds per step since the previous row
+};
+
+/// Kinetic and potential energy and momentum of the owned vertices, summed per object in
+/// vertex order, then over objects in object order on rank 0 and broadcast. Collective.
+void reduce_mechanics(MPI_Comm comm, const Scene& scene, const World& world, StepDiagnostics& d);
+
+/// The diagnostics CSV (rank 0 only; other ranks hold a closed writer).
+class DiagnosticsCsv {
+public:
+  DiagnosticsCsv() = default;
+  void open(const std::string& path);
+  void write(const StepDiagnostics& d);
+  static const char* header();
+
+private:
+  std::ofstream out_;
+};
+
+}  // namespace softcontact

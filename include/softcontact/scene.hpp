@@ -1,0 +1,109 @@
+#pragma once
+// A validated scene: simulation settings, materials, friction table and the objects with
+// their meshes already placed in world coordinates (SI units throughout). Produced by
+// load_scene() from a YAML file whose format docs/scene-format.md documents key by key.
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "softcontact/mesh.hpp"
+
+namespace softcontact {
+
+using Vec3 = std::array<double, 3>;
+
+enum class ModelKind { linear, corotational, stvk, neohookean, mass_spring };
+enum class IntegratorKind { verlet, symplectic_euler, implicit_euler };
+
+const char* to_string(ModelKind m);
+const char* to_string(IntegratorKind i);
+
+struct Material {
+  std::string name;
+  ModelKind model = ModelKind::corotational;
+  double young = 0;            ///< Young's modulus E [Pa]
+  double poisson = 0;          ///< Poisson ratio nu, in (-1, 0.5)
+  double density = 0;          ///< rho [kg/m^3]
+  double damping_mass = 0;     ///< Rayleigh alpha [1/s]: damping force -alpha m v
+  double damping_stiffness = 0;///< Rayleigh beta [s]: damping force -beta K v
+
+  double lame_lambda() const { return young * poisson / ((1 + poisson) * (1 - 2 * poisson)); }
+  double lame_mu() const { return young / (2 * (1 + poisson)); }
+  /// Dilatational wave speed sqrt((lambda + 2 mu) / rho) [m/s].
+  double wave_speed() const;
+};
+
+/// Coulomb coefficients of a pair of materials (symmetric).
+struct Friction {
+  double mu_static = 0;
+  double mu_kinetic = 0;
+};
+
+struct AxisBox {
+  Vec3 min{}, max{};
+  bool contains(const double* x) const {
+    return x[0] >= min[0] && x[0] <= max[0] && x[1] >= min[1] && x[1] <= max[1] && x[2] >= min[2] && x[2] <= max[2];
+  }
+};
+
+/// One object (one instance of a scene entry), mesh in world coordinates.
+struct SceneObject {
+  std::string name;            ///< entry name, with "[k]" appended for instance k of a multi-instance entry
+  std::string source;          ///< "file.msh" or "primitive sphere" (for summaries)
+  int material = 0;            ///< index into Scene::materials
+  TetMesh mesh;
+  Vec3 velocity{};             ///< initial velocity of every vertex [m/s]
+  bool kinematic = false;      ///< the whole object is fixed (infinite mass)
+  std::vector<AxisBox> fixed;  ///< vertices inside any of these (world coordinates) are fixed
+};
+
+struct Simulation {
+  bool dt_auto = true;
+  double dt = 0;                    ///< [s]; when dt_auto, filled in from the stability limit
+  double dt_safety = 0.5;           ///< fraction of the stable explicit step used by `dt: auto`
+  std::optional<double> end_time;   ///< [s]; exactly one of end_time and steps is set
+  std::optional<std::int64_t> steps;
+  Vec3 gravity{0, 0, -9.81};        ///< [m/s^2]
+  IntegratorKind integrator = IntegratorKind::verlet;
+  std::int64_t output_every = 0;    ///< steps between frames (0: use output_interval)
+  double output_interval = 0;       ///< simulated seconds between frames
+  std::string output_dir;           ///< relative to the working directory
+  bool self_collisions = false;
+};
+
+struct Scene {
+  std::string path;                  ///< the YAML file
+  Simulation sim;
+  std::vector<Material> materials;
+  Friction default_friction{0.5, 0.4};
+  std::vector<std::vector<Friction>> friction;  ///< [materials][materials], symmetric
+  std::vector<SceneObject> objects;
+  std::vector<std::string> warnings; ///< non-fatal findings (reoriented tets, dt above limit, ...)
+
+  std::size_t num_vertices() const;
+  std::size_t num_tets() const;
+};
+
+/// Reads, validates and instantiates a scene. Mesh paths are relative to the scene file.
+/// Throws InputError (file:line: what was expected) for anything invalid.
+Scene load_scene(const std::string& path);
+
+/// Same, from YAML text; `path` names it in messages and anchors relative mesh paths.
+Scene load_scene_from_string(const std::string& yaml, const std::string& path);
+
+/// Largest stable explicit time step of the movable objects:
+/// min over tets of h_min(tet) / c(material), where h_min is the smallest altitude
+/// (3 V / largest face area) and c = sqrt((lambda + 2 mu) / rho) (CFL condition for
+/// linear elasticity with lumped masses). Not multiplied by the safety factor.
+/// Returns +inf when nothing can move.
+double stable_time_step(const Scene& scene);
+
+/// Number of steps the run takes (from steps or ceil(end_time / dt)).
+std::int64_t total_steps(const Simulation& sim);
+
+/// Steps between output frames (from output_every or round(output_interval / dt), >= 1).
+std::int64_t steps_between_frames(const Simulation& sim);
+
+}  // namespace softcontact

@@ -1,0 +1,356 @@
+#include "softcontact/cli.hpp"
+
+#include <H5public.h>
+#include <metis.h>
+#include <omp.h>
+#include <petscsys.h>
+#include <yaml-cpp/yaml.h>
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "softcontact/config.hpp"
+#include "softcontact/error.hpp"
+#include "softcontact/run.hpp"
+#include "softcontact/scene.hpp"
+#include "softcontact/surface.hpp"
+
+namespace softcontact {
+
+namespace detail {
+std::string nearest(const std::string& word, const std::vector<std::string>& candidates);
+}
+
+namespace {
+
+const char* kMainHelp =
+    "softcontact " SOFTCONTACT_VERSION
+    " - colliding deformable bodies with analytic, non-iterative contact forces\n"
+    "(Spillmann, Becker, Teschner 2007)\n"
+    "\n"
+    "usage: mpirun -n RANKS softcontact COMMAND [options]\n"
+    "\n"
+    "commands:\n"
+    "  run SCENE.yaml     run a scene, write HDF5/XDMF frames and a diagnostics CSV\n"
+    "  check SCENE.yaml   validate a scene and print a summary without running\n"
+    "  info               version and the libraries this build uses\n"
+    "\n"
+    "options:\n"
+    "  -h, --help         this help; 'softcontact COMMAND --help' for a command's options\n"
+    "  --version          print the version\n"
+    "\n"
+    "exit status: 0 success, 1 the run failed, 2 bad input (scene, mesh, command line)\n"
+    "PETSc options (e.g. -log_view) are read from the PETSC_OPTIONS environment variable.\n";
+
+const char* kRunHelp =
+    "usage: mpirun -n RANKS softcontact run SCENE.yaml [options]\n"
+    "\n"
+    "Runs the scene and writes, in the output directory (scene 'simulation.output.directory',\n"
+    "default output/<scene name>): frames.h5 and frames.xdmf (open the .xdmf in ParaView),\n"
+    "diagnostics.csv and a copy of the scene. Options override the scene:\n"
+    "\n"
+    "  --steps N          number of time steps (replaces the scene's end_time or steps)\n"
+    "  --end-time T       simulated seconds to run (replaces end_time or steps)\n"
+    "  --output DIR       output directory\n"
+    "  --output-every K   steps between output frames (replaces output every/interval)\n"
+    "  --overwrite        replace the results in an existing output directory\n"
+    "  --quiet            no progress line (for batch logs); the final summary is kept\n"
+    "  -h, --help         this help\n";
+
+const char* kCheckHelp =
+    "usage: softcontact check SCENE.yaml\n"
+    "\n"
+    "Reads and validates the scene and every mesh it uses, then prints a summary: objects,\n"
+    "vertices, tets, mass, stable time step, steps and frames. Nothing is written.\n"
+    "Exit status 2 with a message naming the file and line when something is wrong.\n";
+
+const char* kInfoHelp = "usage: softcontact info\n\nPrints the version and the libraries of this build.\n";
+
+[[noreturn]] void usage_error(const std::string& msg, const char* command) {
+  std::string m = "command line: " + msg;
+  if (command) m += std::string(" (see 'softcontact ") + command + " --help')";
+  else m += " (see 'softcontact --help')";
+  throw InputError(m);
+}
+
+/// Parsed arguments of one command: positional words and --options with values.
+struct Args {
+  std::vector<std::string> positional;
+  std::map<std::string, std::string> values;
+  std::vector<std::string> flags;
+  bool help = false;
+};
+
+Args parse_args(int argc, const char* const* argv, int first, const char* command,
+                const std::vector<std::string>& valued, const std::vector<std::string>& flags) {
+  Args a;
+  for (int i = first; i < argc; ++i) {
+    const std::string s = argv[i];
+    if (s == "-h" || s == "--help") {
+      a.help = true;
+      continue;
+    }
+    if (s.rfind("--", 0) == 0) {
+      std::string key = s, value;
+      const auto eq = s.find('=');
+      if (eq != std::string::npos) {
+        key = s.substr(0, eq);
+        value = s.substr(eq + 1);
+      }
+      if (std::find(valued.begin(), valued.end(), key) != valued.end()) {
+        if (eq == std::string::npos) {
+          if (i + 1 >= argc) usage_error("option " + key + " needs a value", command);
+          value = argv[++i];
+        }
+        a.values[key] = value;
+      } else if (std::find(flags.begin(), flags.end(), key) != flags.end()) {
+        if (eq != std::string::npos) usage_error("option " + key + " takes no value", command);
+        a.flags.push_back(key);
+      } else {
+        std::vector<std::string> all = valued;
+        all.insert(all.end(), flags.begin(), flags.end());
+        all.push_back("--help");
+        std::string msg = "unknown option '" + key + "'";
+        const std::string guess = detail::nearest(key, all);
+        if (!guess.empty()) msg += " (did you mean '" + guess + "'?)";
+        usage_error(msg, command);
+      }
+    } else if (s.size() > 1 && s[0] == '-') {
+      usage_error("unknown option '" + s + "' (options start with '--'; PETSc options go in PETSC_OPTIONS)", command);
+    } else {
+      a.positional.push_back(s);
+    }
+  }
+  return a;
+}
+
+bool has(const Args& a, const std::string& flag) {
+  return std::find(a.flags.begin(), a.flags.end(), flag) != a.flags.end();
+}
+
+std::int64_t parse_count(const std::string& opt, const std::string& v, const char* command) {
+  std::size_t pos = 0;
+  long long n = 0;
+  try {
+    n = std::stoll(v, &pos);
+  } catch (const std::exception&) {
+    pos = 0;
+  }
+  if (pos != v.size() || v.empty() || n < 1) usage_error(opt + " expects a positive integer, got '" + v + "'", command);
+  return n;
+}
+
+double parse_seconds(const std::string& opt, const std::string& v, const char* command) {
+  std::size_t pos = 0;
+  double x = 0;
+  try {
+    x = std::stod(v, &pos);
+  } catch (const std::exception&) {
+    pos = 0;
+  }
+  if (pos != v.size() || v.empty() || !(x > 0) || !std::isfinite(x))
+    usage_error(opt + " expects a positive number of seconds, got '" + v + "'", command);
+  return x;
+}
+
+std::string scene_argument(const Args& a, const char* command) {
+  if (a.positional.empty()) usage_error(std::string("'") + command + "' needs a scene file", command);
+  if (a.positional.size() > 1) usage_error("unexpected argument '" + a.positional[1] + "'", command);
+  return a.positional[0];
+}
+
+void print_warnings(const Scene& s, std::ostream& err) {
+  for (const auto& w : s.warnings) err << w << '\n';
+}
+
+std::string human(double x, const char* unit) {
+  std::ostringstream s;
+  s << std::setprecision(4) << x << ' ' << unit;
+  return s.str();
+}
+
+void print_summary(const Scene& s, std::ostream& out) {
+  const Simulation& sim = s.sim;
+  out << "scene " << s.path << "\n";
+  out << "  objects " << s.objects.size() << ", materials " << s.materials.size() << "\n";
+  double total_mass = 0;
+  std::size_t tris = 0;
+  out << "  " << std::left << std::setw(24) << "object" << std::setw(14) << "material" << std::setw(14) << "model"
+      << std::right << std::setw(10) << "vertices" << std::setw(10) << "tets" << std::setw(14) << "mass [kg]"
+      << "  fixed vertices\n";
+  constexpr std::size_t kShown = 20;
+  for (std::size_t k = 0; k < s.objects.size(); ++k) {
+    const SceneObject& o = s.objects[k];
+    const Material& m = s.materials[o.material];
+    const double mass = m.density * tet_volume_sum(o.mesh);
+    total_mass += mass;
+    tris += extract_surface(o.mesh).num_triangles();
+    std::size_t fixed = 0;
+    for (std::size_t i = 0; i < o.mesh.num_vertices(); ++i) {
+      bool f = o.kinematic;
+      for (const AxisBox& b : o.fixed) f = f || b.contains(&o.mesh.points[3 * i]);
+      fixed += f;
+    }
+    if (k < kShown)
+      out << "  " << std::left << std::setw(24) << o.name << std::setw(14) << m.name << std::setw(14)
+          << to_string(m.model) << std::right << std::setw(10) << o.mesh.num_vertices() << std::setw(10)
+          << o.mesh.num_tets() << std::setw(14) << std::setprecision(5) << mass << "  "
+          << (o.kinematic ? "all (kinematic)" : std::to_string(fixed)) << "\n";
+  }
+  if (s.objects.size() > kShown) out << "  ... and " << s.objects.size() - kShown << " more objects\n";
+  out << "  total: " << s.num_vertices() << " vertices, " << s.num_tets() << " tets, " << tris
+      << " surface triangles, mass " << human(total_mass, "kg") << "\n";
+  const double stable = stable_time_step(s);
+  out << "  stable explicit time step " << human(stable, "s") << " (smallest element height / wave speed)\n";
+  out << "  time step " << human(sim.dt, "s") << (sim.dt_auto ? " (auto, safety " : " (given") ;
+  if (sim.dt_auto) out << sim.dt_safety;
+  out << "), integrator " << to_string(sim.integrator) << "\n";
+  const std::int64_t n = total_steps(sim);
+  out << "  " << n << " steps to t = " << human(static_cast<double>(n) * sim.dt, "s") << ", a frame every "
+      << steps_between_frames(sim) << " steps, output to " << sim.output_dir << "\n";
+}
+
+int cmd_check(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) {
+  const Scene s = load_scene(scene_argument(a, "check"));
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  if (rank == 0) {
+    print_warnings(s, err);
+    print_summary(s, out);
+    out << "scene is valid\n";
+  }
+  return 0;
+}
+
+int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) {
+  RunOptions opt;
+  if (a.values.count("--steps")) opt.steps = parse_count("--steps", a.values.at("--steps"), "run");
+  if (a.values.count("--end-time")) opt.end_time = parse_seconds("--end-time", a.values.at("--end-time"), "run");
+  if (a.values.count("--output")) {
+    opt.output_dir = a.values.at("--output");
+    if (opt.output_dir->empty()) usage_error("--output expects a directory", "run");
+  }
+  if (a.values.count("--output-every"))
+    opt.output_every = parse_count("--output-every", a.values.at("--output-every"), "run");
+  opt.overwrite = has(a, "--overwrite");
+  opt.quiet = has(a, "--quiet");
+  Scene s = load_scene(scene_argument(a, "run"));
+  apply_overrides(s, opt);
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  if (rank == 0) {
+    print_warnings(s, err);
+    out << "softcontact " << SOFTCONTACT_VERSION << ": " << s.path << ": " << s.objects.size() << " objects, "
+        << s.num_vertices() << " vertices, " << s.num_tets() << " tets on " << size << " rank(s) x "
+        << omp_get_max_threads() << " thread(s); dt = " << s.sim.dt << " s, " << total_steps(s.sim) << " steps\n"
+        << std::flush;
+  }
+  const RunSummary r = run_scene(comm, s, opt, out);
+  if (rank == 0) {
+    out << "done: " << r.steps << " steps to t = " << r.sim_time << " s in " << std::setprecision(3) << r.wall_seconds
+        << " s (" << std::setprecision(4) << (r.wall_seconds > 0 ? r.steps / r.wall_seconds : 0.0) << " steps/s), "
+        << r.frames << " frames\n"
+        << "output:      " << r.xdmf << "  (open in ParaView: paraview " << r.xdmf << ")\n"
+        << "             " << r.h5 << "  (HDF5, layout in docs/output-format.md)\n"
+        << "diagnostics: " << r.csv << "\n";
+  }
+  return 0;
+}
+
+int cmd_info(std::ostream& out) {
+  int mpi_len = 0;
+  char mpi_version[MPI_MAX_LIBRARY_VERSION_STRING];
+  MPI_Get_library_version(mpi_version, &mpi_len);
+  std::string mpi(mpi_version, static_cast<std::size_t>(mpi_len));
+  mpi = mpi.substr(0, mpi.find_first_of(",\n"));
+  char petsc[256];
+  PetscGetVersion(petsc, sizeof petsc);
+  unsigned h5maj = 0, h5min = 0, h5rel = 0;
+  H5get_libversion(&h5maj, &h5min, &h5rel);
+  out << "softcontact " << SOFTCONTACT_VERSION << "\n"
+      << "  MPI:      " << mpi << "\n"
+      << "  PETSc:    " << petsc << "\n"
+      << "  HDF5:     " << h5maj << '.' << h5min << '.' << h5rel << " (parallel)\n"
+      << "  METIS:    " << METIS_VER_MAJOR << '.' << METIS_VER_MINOR << '.' << METIS_VER_SUBMINOR << "\n"
+      << "  Eigen:    " << EIGEN_WORLD_VERSION << '.' << EIGEN_MAJOR_VERSION << '.' << EIGEN_MINOR_VERSION << "\n"
+      << "  OpenMP:   " << _OPENMP << ", " << omp_get_max_threads() << " threads\n";
+  return 0;
+}
+
+int dispatch(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out, std::ostream& err) {
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  auto say = [&](const char* text) {
+    if (rank == 0) out << text;
+    return 0;
+  };
+  if (argc < 2) {
+    if (rank == 0) err << kMainHelp;
+    usage_error("no command given", nullptr);
+  }
+  const std::string cmd = argv[1];
+  if (cmd == "-h" || cmd == "--help" || cmd == "help") return say(kMainHelp);
+  if (cmd == "--version") return say("softcontact " SOFTCONTACT_VERSION "\n");
+  if (cmd == "run") {
+    const Args a = parse_args(argc, argv, 2, "run",
+                              {"--steps", "--end-time", "--output", "--output-every"}, {"--overwrite", "--quiet"});
+    return a.help ? say(kRunHelp) : cmd_run(a, comm, out, err);
+  }
+  if (cmd == "check") {
+    const Args a = parse_args(argc, argv, 2, "check", {}, {});
+    return a.help ? say(kCheckHelp) : cmd_check(a, comm, out, err);
+  }
+  if (cmd == "info") {
+    const Args a = parse_args(argc, argv, 2, "info", {}, {});
+    return a.help ? say(kInfoHelp) : (rank == 0 ? cmd_info(out) : 0);
+  }
+  std::string msg = "unknown command '" + cmd + "'";
+  const std::string guess = detail::nearest(cmd, {"run", "check", "info", "help"});
+  if (!guess.empty()) msg += " (did you mean '" + guess + "'?)";
+  usage_error(msg, nullptr);
+}
+
+}  // namespace
+
+int run_cli(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out, std::ostream& err) {
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  int code = 0;
+  std::string message;
+  try {
+    code = dispatch(argc, argv, comm, out, err);
+  } catch (const InputError& e) {
+    // Input is read identically on every rank, so every rank gets here together;
+    // the lowest rank that failed speaks.
+    code = kExitInputError;
+    message = e.what();
+  } catch (const std::exception& e) {
+    // A failure of this rank alone (I/O, numerical): the others may be waiting in a
+    // collective call, so end the whole job.
+    err << "softcontact: error";
+    if (size > 1) err << " on rank " << rank;
+    err << ": " << e.what() << std::endl;
+    if (size > 1) MPI_Abort(comm, 1);
+    return 1;
+  }
+  int failed_rank = code != 0 ? rank : size;
+  int first = size;
+  MPI_Allreduce(&failed_rank, &first, 1, MPI_INT, MPI_MIN, comm);
+  if (first < size) {
+    if (rank == first) err << "softcontact: error: " << message << std::endl;
+    return kExitInputError;
+  }
+  return code;
+}
+
+}  // namespace softcontact

@@ -1,0 +1,165 @@
+// Scene entries -> placed objects: transforms, grid copies and seeded random placement.
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <sstream>
+
+#include "scene_internal.hpp"
+#include "softcontact/error.hpp"
+
+namespace softcontact {
+
+namespace {
+
+Mat3 mul(const Mat3& a, const Mat3& b) {
+  Mat3 c{};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k) c[3 * i + j] += a[3 * i + k] * b[3 * k + j];
+  return c;
+}
+
+/// A double in [0, 1) from 53 random bits: unlike std::uniform_real_distribution, whose
+/// algorithm is implementation-defined, this gives the same placement on every platform.
+double unit(std::mt19937_64& g) { return static_cast<double>(g() >> 11) * 0x1.0p-53; }
+
+/// Uniformly distributed rotation (Shoemake's method: a uniform unit quaternion).
+Mat3 random_rotation(std::mt19937_64& g) {
+  const double u1 = unit(g), u2 = 2 * M_PI * unit(g), u3 = 2 * M_PI * unit(g);
+  const double a = std::sqrt(1 - u1), b = std::sqrt(u1);
+  const double w = a * std::sin(u2), x = a * std::cos(u2), y = b * std::sin(u3), z = b * std::cos(u3);
+  return {1 - 2 * (y * y + z * z), 2 * (x * y - z * w),     2 * (x * z + y * w),
+          2 * (x * y + z * w),     1 - 2 * (x * x + z * z), 2 * (y * z - x * w),
+          2 * (x * z - y * w),     2 * (y * z + x * w),     1 - 2 * (x * x + y * y)};
+}
+
+TetMesh transformed(const TetMesh& m, const Vec3& scale, const Mat3& R, const Vec3& t) {
+  TetMesh out = m;
+  for (std::size_t i = 0; i < m.num_vertices(); ++i) {
+    const double s[3] = {m.points[3 * i] * scale[0], m.points[3 * i + 1] * scale[1], m.points[3 * i + 2] * scale[2]};
+    for (int r = 0; r < 3; ++r) out.points[3 * i + r] = R[3 * r] * s[0] + R[3 * r + 1] * s[1] + R[3 * r + 2] * s[2] + t[r];
+  }
+  // A reflection (never produced here: scales are positive) would invert every tet.
+  return out;
+}
+
+struct Sphere {
+  Vec3 c;
+  double r;
+};
+
+Sphere bounding_sphere(const TetMesh& m) {
+  Vec3 lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  for (std::size_t i = 0; i < m.num_vertices(); ++i)
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = std::min(lo[d], m.points[3 * i + d]);
+      hi[d] = std::max(hi[d], m.points[3 * i + d]);
+    }
+  Sphere s{{(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2}, 0};
+  for (std::size_t i = 0; i < m.num_vertices(); ++i)
+    s.r = std::max(s.r, std::hypot(m.points[3 * i] - s.c[0], m.points[3 * i + 1] - s.c[1], m.points[3 * i + 2] - s.c[2]));
+  return s;
+}
+
+SceneObject make_object(const EntrySpec& spec, TetMesh mesh, const std::string& name) {
+  SceneObject o;
+  o.name = name;
+  o.source = spec.source;
+  o.material = spec.material;
+  o.mesh = std::move(mesh);
+  o.velocity = spec.velocity;
+  o.kinematic = spec.kinematic;
+  o.fixed = spec.fixed;
+  return o;
+}
+
+}  // namespace
+
+Mat3 rotation_xyz_degrees(const Vec3& e) {
+  const double k = M_PI / 180;
+  const double cx = std::cos(e[0] * k), sx = std::sin(e[0] * k);
+  const double cy = std::cos(e[1] * k), sy = std::sin(e[1] * k);
+  const double cz = std::cos(e[2] * k), sz = std::sin(e[2] * k);
+  const Mat3 rx{1, 0, 0, 0, cx, -sx, 0, sx, cx};
+  const Mat3 ry{cy, 0, sy, 0, 1, 0, -sy, 0, cy};
+  const Mat3 rz{cz, -sz, 0, sz, cz, 0, 0, 0, 1};
+  return mul(rz, mul(ry, rx));
+}
+
+Mat3 rotation_axis_angle(const Vec3& axis, double deg) {
+  const double len = std::hypot(axis[0], axis[1], axis[2]);
+  const double x = axis[0] / len, y = axis[1] / len, z = axis[2] / len;
+  const double a = deg * M_PI / 180, c = std::cos(a), s = std::sin(a), C = 1 - c;
+  return {c + x * x * C,     x * y * C - z * s, x * z * C + y * s,
+          y * x * C + z * s, c + y * y * C,     y * z * C - x * s,
+          z * x * C - y * s, z * y * C + x * s, c + z * z * C};
+}
+
+void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects) {
+  const TetMesh base = transformed(spec.mesh, spec.scale, spec.rotation, spec.translate);
+  const Mat3 identity{1, 0, 0, 0, 1, 0, 0, 0, 1};
+  switch (spec.instancing) {
+    case EntrySpec::Instancing::single:
+      objects.push_back(make_object(spec, base, spec.name));
+      return;
+    case EntrySpec::Instancing::grid: {
+      int k = 0;
+      for (int iz = 0; iz < spec.grid_count[2]; ++iz)
+        for (int iy = 0; iy < spec.grid_count[1]; ++iy)
+          for (int ix = 0; ix < spec.grid_count[0]; ++ix) {
+            const Vec3 off{ix * spec.grid_spacing[0], iy * spec.grid_spacing[1], iz * spec.grid_spacing[2]};
+            objects.push_back(make_object(spec, transformed(base, {1, 1, 1}, identity, off),
+                                          spec.name + "[" + std::to_string(k++) + "]"));
+          }
+      return;
+    }
+    case EntrySpec::Instancing::random: {
+      // Rejection sampling of centres (and rotations) against the bounding spheres of
+      // everything placed so far; deterministic for a given seed.
+      std::vector<Sphere> placed;
+      for (const auto& o : objects) placed.push_back(bounding_sphere(o.mesh));
+      const Sphere own = bounding_sphere(base);
+      for (int d = 0; d < 3; ++d)
+        if (spec.region.max[d] - spec.region.min[d] < 2 * own.r) {
+          std::ostringstream s;
+          s << "the 'random.region' is narrower than one copy (bounding diameter " << 2 * own.r
+            << " m) along axis " << "xyz"[d];
+          throw InputError(s.str());
+        }
+      std::mt19937_64 gen(spec.seed);
+      const std::int64_t max_attempts = 1000 + 1000 * static_cast<std::int64_t>(spec.random_count);
+      std::int64_t attempts = 0;
+      for (int k = 0; k < spec.random_count; ++k) {
+        for (;;) {
+          if (++attempts > max_attempts) {
+            std::ostringstream s;
+            s << "could place only " << k << " of " << spec.random_count
+              << " non-overlapping copies in 'random.region' after " << max_attempts
+              << " attempts; enlarge the region or lower the count";
+            throw InputError(s.str());
+          }
+          Vec3 c;
+          for (int d = 0; d < 3; ++d)
+            c[d] = spec.region.min[d] + own.r + unit(gen) * (spec.region.max[d] - spec.region.min[d] - 2 * own.r);
+          const Mat3 R = spec.random_rotate ? random_rotation(gen) : identity;
+          const bool overlaps = std::any_of(placed.begin(), placed.end(), [&](const Sphere& s) {
+            return std::hypot(s.c[0] - c[0], s.c[1] - c[1], s.c[2] - c[2]) < s.r + own.r;
+          });
+          if (overlaps) continue;
+          // rotate about the copy's own centre, then move the centre to c
+          TetMesh m = base;
+          for (std::size_t i = 0; i < m.num_vertices(); ++i) {
+            const double p[3] = {base.points[3 * i] - own.c[0], base.points[3 * i + 1] - own.c[1], base.points[3 * i + 2] - own.c[2]};
+            for (int r = 0; r < 3; ++r) m.points[3 * i + r] = R[3 * r] * p[0] + R[3 * r + 1] * p[1] + R[3 * r + 2] * p[2] + c[r];
+          }
+          placed.push_back({c, own.r});
+          objects.push_back(make_object(spec, std::move(m), spec.name + "[" + std::to_string(k) + "]"));
+          break;
+        }
+      }
+      return;
+    }
+  }
+}
+
+}  // namespace softcontact

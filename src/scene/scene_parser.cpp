@@ -1,0 +1,599 @@
+// YAML scene -> validated Scene. Every user mistake becomes an InputError that names the
+// file and line (yaml-cpp marks are 0-based; we report 1-based) and says what was
+// expected; unknown keys get the nearest valid key suggested.
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <sstream>
+
+#include "softcontact/error.hpp"
+#include "softcontact/mesh_io.hpp"
+#include "softcontact/primitives.hpp"
+#include "softcontact/scene.hpp"
+#include "scene_internal.hpp"
+
+namespace softcontact {
+
+const char* to_string(ModelKind m) {
+  switch (m) {
+    case ModelKind::linear: return "linear";
+    case ModelKind::corotational: return "corotational";
+    case ModelKind::stvk: return "stvk";
+    case ModelKind::neohookean: return "neohookean";
+    case ModelKind::mass_spring: return "mass_spring";
+  }
+  return "?";
+}
+
+const char* to_string(IntegratorKind i) {
+  switch (i) {
+    case IntegratorKind::verlet: return "verlet";
+    case IntegratorKind::symplectic_euler: return "symplectic_euler";
+    case IntegratorKind::implicit_euler: return "implicit_euler";
+  }
+  return "?";
+}
+
+double Material::wave_speed() const { return std::sqrt((lame_lambda() + 2 * lame_mu()) / density); }
+
+std::size_t Scene::num_vertices() const {
+  std::size_t n = 0;
+  for (const auto& o : objects) n += o.mesh.num_vertices();
+  return n;
+}
+
+std::size_t Scene::num_tets() const {
+  std::size_t n = 0;
+  for (const auto& o : objects) n += o.mesh.num_tets();
+  return n;
+}
+
+namespace detail {
+
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j)
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+    std::swap(prev, cur);
+  }
+  return prev[b.size()];
+}
+
+std::string nearest(const std::string& word, const std::vector<std::string>& candidates) {
+  std::string best;
+  std::size_t best_d = std::numeric_limits<std::size_t>::max();
+  for (const auto& c : candidates) {
+    const std::size_t d = edit_distance(word, c);
+    if (d < best_d) {
+      best_d = d;
+      best = c;
+    }
+  }
+  // Only suggest something plausibly meant: at most a third of the letters changed.
+  if (best_d <= std::max<std::size_t>(2, word.size() / 3)) return best;
+  return {};
+}
+
+}  // namespace detail
+
+namespace {
+
+using detail::nearest;
+
+/// Reads typed values from YAML nodes and turns every mistake into an InputError at the
+/// node's line.
+class Reader {
+public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  const std::string& file() const { return file_; }
+
+  [[noreturn]] void fail(const YAML::Node& at, const std::string& what) const {
+    const auto mark = at.Mark();
+    throw InputError(file_, mark.is_null() ? 0 : mark.line + 1, what);
+  }
+
+  void expect_map(const YAML::Node& n, const std::string& what) const {
+    if (!n.IsMap()) fail(n, what + " must be a mapping of 'key: value' entries");
+  }
+
+  /// Rejects keys outside `allowed`, suggesting the nearest one.
+  void check_keys(const YAML::Node& map, const std::vector<std::string>& allowed, const std::string& where) const {
+    expect_map(map, where);
+    for (auto it = map.begin(); it != map.end(); ++it) {
+      const std::string key = it->first.Scalar();
+      if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
+      std::string msg = "unknown key '" + key + "' in " + where;
+      const std::string guess = nearest(key, allowed);
+      if (!guess.empty()) msg += " (did you mean '" + guess + "'?)";
+      else {
+        msg += " (valid keys:";
+        for (const auto& a : allowed) msg += " " + a;
+        msg += ")";
+      }
+      fail(it->first, msg);
+    }
+  }
+
+  YAML::Node require(const YAML::Node& map, const std::string& key, const std::string& where) const {
+    const YAML::Node n = map[key];
+    if (!n) fail(map, "missing key '" + key + "' in " + where);
+    return n;
+  }
+
+  double number(const YAML::Node& n, const std::string& what) const {
+    if (!n.IsScalar()) fail(n, "expected a number for " + what);
+    double v = 0;
+    try {
+      v = n.as<double>();
+    } catch (const YAML::Exception&) {
+      fail(n, "expected a number for " + what + ", got '" + n.Scalar() + "'");
+    }
+    if (!std::isfinite(v)) fail(n, "expected a finite number for " + what + ", got '" + n.Scalar() + "'");
+    return v;
+  }
+
+  double positive(const YAML::Node& n, const std::string& what) const {
+    const double v = number(n, what);
+    if (!(v > 0)) fail(n, what + " must be positive, got " + n.Scalar());
+    return v;
+  }
+
+  double non_negative(const YAML::Node& n, const std::string& what) const {
+    const double v = number(n, what);
+    if (v < 0) fail(n, what + " must be zero or positive, got " + n.Scalar());
+    return v;
+  }
+
+  std::int64_t integer(const YAML::Node& n, const std::string& what, std::int64_t lo, std::int64_t hi) const {
+    if (!n.IsScalar()) fail(n, "expected an integer for " + what);
+    long long v = 0;
+    try {
+      v = n.as<long long>();
+    } catch (const YAML::Exception&) {
+      fail(n, "expected an integer for " + what + ", got '" + n.Scalar() + "'");
+    }
+    if (v < lo || v > hi) {
+      std::ostringstream s;
+      s << what << " must be between " << lo << " and " << hi << ", got " << v;
+      fail(n, s.str());
+    }
+    return v;
+  }
+
+  bool boolean(const YAML::Node& n, const std::string& what) const {
+    if (!n.IsScalar()) fail(n, "expected true or false for " + what);
+    try {
+      return n.as<bool>();
+    } catch (const YAML::Exception&) {
+      fail(n, "expected true or false for " + what + ", got '" + n.Scalar() + "'");
+    }
+  }
+
+  std::string text(const YAML::Node& n, const std::string& what) const {
+    if (!n.IsScalar()) fail(n, "expected a string for " + what);
+    return n.Scalar();
+  }
+
+  Vec3 vec3(const YAML::Node& n, const std::string& what) const {
+    if (!n.IsSequence() || n.size() != 3) fail(n, "expected a list of three numbers [x, y, z] for " + what);
+    return {number(n[0], what), number(n[1], what), number(n[2], what)};
+  }
+
+  std::array<int, 3> int3(const YAML::Node& n, const std::string& what, int lo, int hi) const {
+    if (!n.IsSequence() || n.size() != 3) fail(n, "expected a list of three integers for " + what);
+    std::array<int, 3> r{};
+    for (int i = 0; i < 3; ++i) r[i] = static_cast<int>(integer(n[i], what, lo, hi));
+    return r;
+  }
+
+  template <class E>
+  E choice(const YAML::Node& n, const std::string& what, const std::vector<std::pair<std::string, E>>& options) const {
+    const std::string v = text(n, what);
+    std::vector<std::string> names;
+    for (const auto& [name, e] : options) {
+      if (name == v) return e;
+      names.push_back(name);
+    }
+    std::string msg = "unknown " + what + " '" + v + "'";
+    const std::string guess = nearest(v, names);
+    if (!guess.empty()) msg += " (did you mean '" + guess + "'?)";
+    msg += "; expected one of:";
+    for (const auto& nm : names) msg += " " + nm;
+    fail(n, msg);
+  }
+
+private:
+  std::string file_;
+};
+
+void parse_simulation(const Reader& r, const YAML::Node& n, Simulation& sim) {
+  r.check_keys(n, {"dt", "dt_safety", "end_time", "steps", "gravity", "integrator", "output", "self_collisions"},
+               "'simulation'");
+  if (const auto dt = n["dt"]) {
+    if (dt.IsScalar() && dt.Scalar() == "auto") {
+      sim.dt_auto = true;
+    } else {
+      sim.dt_auto = false;
+      sim.dt = r.positive(dt, "'dt' (seconds, or 'auto')");
+    }
+  }
+  if (const auto s = n["dt_safety"]) {
+    sim.dt_safety = r.positive(s, "'dt_safety'");
+    if (sim.dt_safety > 1) r.fail(s, "'dt_safety' must be in (0, 1], got " + s.Scalar());
+  }
+  const auto end = n["end_time"];
+  const auto steps = n["steps"];
+  if (end && steps) r.fail(steps, "give either 'end_time' or 'steps' in 'simulation', not both");
+  if (!end && !steps) r.fail(n, "missing key 'end_time' (or 'steps') in 'simulation'");
+  if (end) sim.end_time = r.positive(end, "'end_time' (seconds)");
+  if (steps) sim.steps = r.integer(steps, "'steps'", 1, std::int64_t{1} << 40);
+  if (const auto g = n["gravity"]) sim.gravity = r.vec3(g, "'gravity' (m/s^2)");
+  if (const auto i = n["integrator"])
+    sim.integrator = r.choice<IntegratorKind>(i, "integrator",
+                                              {{"verlet", IntegratorKind::verlet},
+                                               {"symplectic_euler", IntegratorKind::symplectic_euler},
+                                               {"implicit_euler", IntegratorKind::implicit_euler}});
+  if (const auto sc = n["self_collisions"]) sim.self_collisions = r.boolean(sc, "'self_collisions'");
+  if (const auto o = n["output"]) {
+    r.check_keys(o, {"directory", "every", "interval"}, "'simulation.output'");
+    if (const auto d = o["directory"]) sim.output_dir = r.text(d, "'output.directory'");
+    if (o["every"] && o["interval"]) r.fail(o["interval"], "give either 'every' (steps) or 'interval' (seconds) in 'output', not both");
+    if (const auto e = o["every"]) sim.output_every = r.integer(e, "'output.every' (steps between frames)", 1, std::int64_t{1} << 40);
+    if (const auto iv = o["interval"]) sim.output_interval = r.positive(iv, "'output.interval' (seconds between frames)");
+  }
+}
+
+Material parse_material(const Reader& r, const YAML::Node& n) {
+  r.check_keys(n, {"name", "model", "young", "poisson", "density", "damping"}, "a material");
+  Material m;
+  m.name = r.text(r.require(n, "name", "a material"), "'name'");
+  const std::string where = "material '" + m.name + "'";
+  if (const auto model = n["model"])
+    m.model = r.choice<ModelKind>(model, "model",
+                                  {{"linear", ModelKind::linear},
+                                   {"corotational", ModelKind::corotational},
+                                   {"stvk", ModelKind::stvk},
+                                   {"neohookean", ModelKind::neohookean},
+                                   {"mass_spring", ModelKind::mass_spring}});
+  m.young = r.positive(r.require(n, "young", where), "'young' (Young's modulus, Pa) of " + where);
+  const auto nu = r.require(n, "poisson", where);
+  m.poisson = r.number(nu, "'poisson' of " + where);
+  if (!(m.poisson > -1.0 && m.poisson < 0.5))
+    r.fail(nu, "'poisson' of " + where + " must lie in (-1, 0.5), got " + nu.Scalar());
+  m.density = r.positive(r.require(n, "density", where), "'density' (kg/m^3) of " + where);
+  if (const auto d = n["damping"]) {
+    r.check_keys(d, {"mass", "stiffness"}, "'damping' of " + where);
+    if (d["mass"]) m.damping_mass = r.non_negative(d["mass"], "'damping.mass' (1/s) of " + where);
+    if (d["stiffness"]) m.damping_stiffness = r.non_negative(d["stiffness"], "'damping.stiffness' (s) of " + where);
+  }
+  return m;
+}
+
+Friction parse_coefficients(const Reader& r, const YAML::Node& n, const std::string& where) {
+  Friction f;
+  f.mu_static = r.non_negative(r.require(n, "static", where), "'static' friction of " + where);
+  f.mu_kinetic = n["kinetic"] ? r.non_negative(n["kinetic"], "'kinetic' friction of " + where) : f.mu_static;
+  if (f.mu_kinetic > f.mu_static)
+    r.fail(n["kinetic"], "'kinetic' friction of " + where + " exceeds 'static' (expected kinetic <= static)");
+  return f;
+}
+
+int material_index(const Reader& r, const YAML::Node& n, const std::vector<Material>& mats) {
+  const std::string name = r.text(n, "material name");
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < mats.size(); ++i) {
+    if (mats[i].name == name) return static_cast<int>(i);
+    names.push_back(mats[i].name);
+  }
+  std::string msg = "unknown material '" + name + "'";
+  const std::string guess = nearest(name, names);
+  if (!guess.empty()) msg += " (did you mean '" + guess + "'?)";
+  msg += "; materials defined:";
+  for (const auto& nm : names) msg += " " + nm;
+  r.fail(n, msg);
+}
+
+void parse_friction(const Reader& r, const YAML::Node& n, Scene& scene) {
+  r.check_keys(n, {"default", "pairs"}, "'friction'");
+  if (const auto d = n["default"]) {
+    r.check_keys(d, {"static", "kinetic"}, "'friction.default'");
+    scene.default_friction = parse_coefficients(r, d, "'friction.default'");
+  }
+  const std::size_t nm = scene.materials.size();
+  scene.friction.assign(nm, std::vector<Friction>(nm, scene.default_friction));
+  if (const auto pairs = n["pairs"]) {
+    if (!pairs.IsSequence()) r.fail(pairs, "'friction.pairs' must be a list");
+    for (const auto& p : pairs) {
+      r.check_keys(p, {"materials", "static", "kinetic"}, "a friction pair");
+      const auto ms = r.require(p, "materials", "a friction pair");
+      if (!ms.IsSequence() || ms.size() != 2) r.fail(ms, "expected two material names [a, b] in 'materials'");
+      const int a = material_index(r, ms[0], scene.materials);
+      const int b = material_index(r, ms[1], scene.materials);
+      const Friction f = parse_coefficients(r, p, "friction pair " + scene.materials[a].name + "/" + scene.materials[b].name);
+      scene.friction[a][b] = scene.friction[b][a] = f;
+    }
+  }
+}
+
+TetMesh parse_primitive(const Reader& r, const YAML::Node& n, const std::string& where) {
+  r.expect_map(n, "'primitive' of " + where);
+  const auto type_node = r.require(n, "type", "'primitive' of " + where);
+  enum class P { box, plate, cylinder, sphere, torus };
+  const P type = r.choice<P>(type_node, "primitive type",
+                             {{"box", P::box}, {"plate", P::plate}, {"membrane", P::plate},
+                              {"cylinder", P::cylinder}, {"sphere", P::sphere}, {"torus", P::torus}});
+  const std::string pw = "primitive '" + type_node.Scalar() + "' of " + where;
+  auto res = [&](const char* key, int dflt, int lo) {
+    return n[key] ? static_cast<int>(r.integer(n[key], std::string("'") + key + "' of " + pw, lo, 4096)) : dflt;
+  };
+  try {
+    switch (type) {
+      case P::box: {
+        r.check_keys(n, {"type", "size", "cells", "resolution"}, pw);
+        const Vec3 size = r.vec3(r.require(n, "size", pw), "'size' of " + pw);
+        for (double s : size)
+          if (!(s > 0)) r.fail(n["size"], "'size' of " + pw + " must be positive in every direction");
+        std::array<int, 3> cells{};
+        if (n["cells"]) {
+          if (n["resolution"]) r.fail(n["resolution"], "give either 'cells' or 'resolution' for " + pw);
+          cells = r.int3(n["cells"], "'cells' of " + pw, 1, 4096);
+        } else {
+          // resolution = cells along the longest side; the others keep cells near cubic
+          const int k = res("resolution", 4, 1);
+          const double lmax = std::max({size[0], size[1], size[2]});
+          for (int d = 0; d < 3; ++d) cells[d] = std::max(1, static_cast<int>(std::lround(k * size[d] / lmax)));
+        }
+        return make_box(size[0], size[1], size[2], cells[0], cells[1], cells[2]);
+      }
+      case P::plate: {
+        r.check_keys(n, {"type", "size", "thickness", "cells", "layers"}, pw);
+        const auto sz = r.require(n, "size", pw);
+        if (!sz.IsSequence() || sz.size() != 2) r.fail(sz, "expected [lx, ly] for 'size' of " + pw);
+        const double lx = r.positive(sz[0], "'size' of " + pw), ly = r.positive(sz[1], "'size' of " + pw);
+        const double t = r.positive(r.require(n, "thickness", pw), "'thickness' of " + pw);
+        int nx = 10, ny = 10;
+        if (const auto c = n["cells"]) {
+          if (!c.IsSequence() || c.size() != 2) r.fail(c, "expected [nx, ny] for 'cells' of " + pw);
+          nx = static_cast<int>(r.integer(c[0], "'cells' of " + pw, 1, 4096));
+          ny = static_cast<int>(r.integer(c[1], "'cells' of " + pw, 1, 4096));
+        }
+        return make_box(lx, ly, t, nx, ny, res("layers", 1, 1));
+      }
+      case P::cylinder: {
+        r.check_keys(n, {"type", "radius", "height", "resolution", "axial"}, pw);
+        const double rad = r.positive(r.require(n, "radius", pw), "'radius' of " + pw);
+        const double h = r.positive(r.require(n, "height", pw), "'height' of " + pw);
+        const int k = res("resolution", 3, 1);
+        const int ax = res("axial", std::max(1, static_cast<int>(std::lround(k * h / rad))), 1);
+        return make_cylinder(rad, h, k, ax);
+      }
+      case P::sphere: {
+        r.check_keys(n, {"type", "radius", "resolution"}, pw);
+        return make_sphere(r.positive(r.require(n, "radius", pw), "'radius' of " + pw), res("resolution", 6, 2));
+      }
+      case P::torus: {
+        r.check_keys(n, {"type", "major_radius", "minor_radius", "resolution", "around"}, pw);
+        const double R = r.positive(r.require(n, "major_radius", pw), "'major_radius' of " + pw);
+        const double a = r.positive(r.require(n, "minor_radius", pw), "'minor_radius' of " + pw);
+        if (!(a < R)) r.fail(n["minor_radius"], "'minor_radius' of " + pw + " must be smaller than 'major_radius'");
+        const int k = res("resolution", 4, 2);
+        // cells around the ring so that they are about as long as across the tube
+        const int around = res("around", std::max(3, static_cast<int>(std::lround(M_PI * R * k / a))), 3);
+        return make_torus(R, a, around, k);
+      }
+    }
+  } catch (const InputError& e) {
+    if (!e.file().empty()) throw;
+    r.fail(n, e.detail());
+  }
+  r.fail(n, "unsupported primitive");
+}
+
+void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const std::filesystem::path& dir) {
+  if (!list.IsSequence() || list.size() == 0) r.fail(list, "'objects' must be a non-empty list of objects");
+  std::map<std::string, std::pair<TetMesh, MeshReport>> mesh_cache;  // a file instanced many times is read once
+  int entry = 0;
+  for (const auto& n : list) {
+    ++entry;
+    r.check_keys(n, {"name", "material", "mesh", "primitive", "transform", "velocity", "kinematic", "fixed", "instances"},
+                 "an object");
+    EntrySpec spec;
+    spec.name = n["name"] ? r.text(n["name"], "'name'") : "object" + std::to_string(entry);
+    const std::string where = "object '" + spec.name + "'";
+    spec.material = material_index(r, r.require(n, "material", where), scene.materials);
+    if (n["mesh"] && n["primitive"]) r.fail(n["primitive"], where + " has both 'mesh' and 'primitive'; give one");
+    if (n["mesh"]) {
+      const std::string rel = r.text(n["mesh"], "'mesh'");
+      const std::filesystem::path p = std::filesystem::path(rel).is_absolute() ? std::filesystem::path(rel) : dir / rel;
+      const std::string key = p.lexically_normal().string();
+      auto it = mesh_cache.find(key);
+      if (it == mesh_cache.end()) {
+        if (!std::filesystem::exists(p))
+          r.fail(n["mesh"], "mesh file '" + key + "' of " + where + " does not exist");
+        MeshReport rep;
+        TetMesh m = read_mesh(key, &rep);
+        it = mesh_cache.emplace(key, std::make_pair(std::move(m), rep)).first;
+        for (const auto& w : rep.warnings) scene.warnings.push_back(w);
+      }
+      spec.mesh = it->second.first;
+      spec.source = rel;
+    } else if (n["primitive"]) {
+      spec.mesh = parse_primitive(r, n["primitive"], where);
+      spec.source = "primitive " + n["primitive"]["type"].Scalar();
+    } else {
+      r.fail(n, where + " needs a 'mesh' file or a 'primitive'");
+    }
+    if (const auto t = n["transform"]) {
+      r.check_keys(t, {"translate", "rotate", "scale"}, "'transform' of " + where);
+      if (t["translate"]) spec.translate = r.vec3(t["translate"], "'translate'");
+      if (const auto s = t["scale"]) {
+        if (s.IsSequence()) {
+          spec.scale = r.vec3(s, "'scale'");
+          for (double c : spec.scale)
+            if (!(c > 0)) r.fail(s, "'scale' must be positive in every direction");
+        } else {
+          const double c = r.positive(s, "'scale'");
+          spec.scale = {c, c, c};
+        }
+      }
+      if (const auto rot = t["rotate"]) {
+        if (rot.IsSequence()) {
+          const Vec3 e = r.vec3(rot, "'rotate' (degrees about x, y, z)");
+          spec.rotation = rotation_xyz_degrees(e);
+        } else {
+          r.check_keys(rot, {"axis", "angle"}, "'rotate' of " + where);
+          const Vec3 axis = r.vec3(r.require(rot, "axis", "'rotate'"), "'rotate.axis'");
+          if (std::hypot(axis[0], axis[1], axis[2]) == 0) r.fail(rot["axis"], "'rotate.axis' must not be zero");
+          spec.rotation = rotation_axis_angle(axis, r.number(r.require(rot, "angle", "'rotate'"), "'rotate.angle' (degrees)"));
+        }
+      }
+    }
+    if (n["velocity"]) spec.velocity = r.vec3(n["velocity"], "'velocity' (m/s)");
+    if (n["kinematic"]) spec.kinematic = r.boolean(n["kinematic"], "'kinematic'");
+    if (const auto f = n["fixed"]) {
+      auto one = [&](const YAML::Node& b) {
+        r.check_keys(b, {"min", "max"}, "'fixed' box of " + where);
+        AxisBox box{r.vec3(r.require(b, "min", "'fixed'"), "'fixed.min'"), r.vec3(r.require(b, "max", "'fixed'"), "'fixed.max'")};
+        for (int d = 0; d < 3; ++d)
+          if (box.min[d] > box.max[d]) r.fail(b, "'fixed' box of " + where + " has min > max");
+        spec.fixed.push_back(box);
+      };
+      if (f.IsSequence())
+        for (const auto& b : f) one(b);
+      else
+        one(f);
+    }
+    if (const auto inst = n["instances"]) {
+      r.check_keys(inst, {"grid", "random"}, "'instances' of " + where);
+      if (inst["grid"] && inst["random"]) r.fail(inst, "give either 'grid' or 'random' in 'instances', not both");
+      if (const auto g = inst["grid"]) {
+        r.check_keys(g, {"count", "spacing"}, "'instances.grid'");
+        spec.grid_count = r.int3(r.require(g, "count", "'instances.grid'"), "'grid.count'", 1, 100000);
+        spec.grid_spacing = r.vec3(r.require(g, "spacing", "'instances.grid'"), "'grid.spacing' (m)");
+        spec.instancing = EntrySpec::Instancing::grid;
+      } else if (const auto rnd = inst["random"]) {
+        r.check_keys(rnd, {"count", "region", "seed", "rotate"}, "'instances.random'");
+        spec.random_count = static_cast<int>(r.integer(r.require(rnd, "count", "'instances.random'"), "'random.count'", 1, 1000000));
+        const auto reg = r.require(rnd, "region", "'instances.random'");
+        r.check_keys(reg, {"min", "max"}, "'random.region'");
+        spec.region = {r.vec3(r.require(reg, "min", "'region'"), "'region.min'"), r.vec3(r.require(reg, "max", "'region'"), "'region.max'")};
+        for (int d = 0; d < 3; ++d)
+          if (spec.region.min[d] > spec.region.max[d]) r.fail(reg, "'random.region' has min > max");
+        spec.seed = rnd["seed"] ? static_cast<std::uint64_t>(r.integer(rnd["seed"], "'random.seed'", 0, std::numeric_limits<std::int64_t>::max())) : 1;
+        spec.random_rotate = rnd["rotate"] ? r.boolean(rnd["rotate"], "'random.rotate'") : false;
+        spec.instancing = EntrySpec::Instancing::random;
+      }
+    }
+    try {
+      instantiate(spec, scene.objects);
+    } catch (const InputError& e) {
+      if (!e.file().empty()) throw;
+      r.fail(n, e.detail());
+    }
+  }
+}
+
+}  // namespace
+
+Scene load_scene_from_string(const std::string& yaml, const std::string& path) {
+  Reader r(path);
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml);
+  } catch (const YAML::ParserException& e) {
+    throw InputError(path, e.mark.is_null() ? 0 : e.mark.line + 1, "malformed YAML: " + e.msg);
+  }
+  if (!root.IsMap()) throw InputError(path, 0, "a scene must be a YAML mapping with keys simulation, materials, objects");
+  r.check_keys(root, {"simulation", "materials", "friction", "objects"}, "the scene");
+
+  Scene scene;
+  scene.path = path;
+  parse_simulation(r, r.require(root, "simulation", "the scene"), scene.sim);
+  const auto mats = r.require(root, "materials", "the scene");
+  if (!mats.IsSequence() || mats.size() == 0) r.fail(mats, "'materials' must be a non-empty list");
+  for (const auto& m : mats) {
+    Material mat = parse_material(r, m);
+    for (const auto& other : scene.materials)
+      if (other.name == mat.name) r.fail(m["name"], "material '" + mat.name + "' is defined twice");
+    scene.materials.push_back(mat);
+  }
+  if (const auto f = root["friction"]) parse_friction(r, f, scene);
+  else scene.friction.assign(scene.materials.size(), std::vector<Friction>(scene.materials.size(), scene.default_friction));
+
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  parse_objects(r, r.require(root, "objects", "the scene"), scene, dir);
+
+  // Time step: from the stability limit, or checked against it.
+  const double stable = stable_time_step(scene);
+  if (scene.sim.dt_auto) {
+    if (!std::isfinite(stable))
+      r.fail(root["simulation"], "'dt: auto' needs at least one movable object; give 'dt' in seconds");
+    scene.sim.dt = scene.sim.dt_safety * stable;
+  } else if (scene.sim.integrator != IntegratorKind::implicit_euler && scene.sim.dt > stable) {
+    std::ostringstream s;
+    s << path << ": warning: dt = " << scene.sim.dt << " s exceeds the stable explicit limit " << stable
+      << " s (smallest element height / wave speed); expect an unstable run, or use 'dt: auto'";
+    scene.warnings.push_back(s.str());
+  }
+  if (scene.sim.output_dir.empty())
+    scene.sim.output_dir = "output/" + std::filesystem::path(path).stem().string();
+  return scene;
+}
+
+Scene load_scene(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!std::filesystem::exists(path)) throw InputError(path, 0, "scene file does not exist");
+  if (std::filesystem::is_directory(path)) throw InputError(path, 0, "is a directory, expected a scene file (.yaml)");
+  if (!in) throw InputError(path, 0, "cannot open the scene file for reading");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return load_scene_from_string(ss.str(), path);
+}
+
+double stable_time_step(const Scene& scene) {
+  double dt = std::numeric_limits<double>::infinity();
+  for (const auto& o : scene.objects) {
+    if (o.kinematic) continue;
+    const double c = scene.materials[o.material].wave_speed();
+    const TetMesh& m = o.mesh;
+    for (std::size_t t = 0; t < m.num_tets(); ++t) {
+      const index_t* tet = m.tets.data() + 4 * t;
+      const double* p[4];
+      for (int k = 0; k < 4; ++k) p[k] = m.points.data() + 3 * static_cast<std::size_t>(tet[k]);
+      const double vol = std::abs(signed_tet_volume(p[0], p[1], p[2], p[3]));
+      double amax = 0;
+      for (int f = 0; f < 4; ++f) {
+        const double *a = p[(f + 1) % 4], *b = p[(f + 2) % 4], *cc = p[(f + 3) % 4];
+        const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        const double v[3] = {cc[0] - a[0], cc[1] - a[1], cc[2] - a[2]};
+        amax = std::max(amax, 0.5 * std::hypot(u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]));
+      }
+      dt = std::min(dt, 3.0 * vol / amax / c);
+    }
+  }
+  return dt;
+}
+
+std::int64_t total_steps(const Simulation& sim) {
+  if (sim.steps) return *sim.steps;
+  // A relative slack so that end_time = k * dt does not take k + 1 steps from rounding.
+  return std::max<std::int64_t>(1, static_cast<std::int64_t>(std::ceil(*sim.end_time / sim.dt * (1 - 1e-12))));
+}
+
+std::int64_t steps_between_frames(const Simulation& sim) {
+  if (sim.output_every > 0) return sim.output_every;
+  if (sim.output_interval > 0)
+    return std::max<std::int64_t>(1, static_cast<std::int64_t>(std::llround(sim.output_interval / sim.dt)));
+  return std::max<std::int64_t>(1, total_steps(sim) / 100);  // about 100 frames by default
+}
+
+}  // namespace softcontact

@@ -1,0 +1,49 @@
+#include "softcontact/integrator.hpp"
+
+namespace softcontact {
+
+void gravity_forces(const World& w, const Vec3& g, std::vector<double>& f) {
+  f.assign(3 * w.n_local(), 0.0);
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(w.n_owned);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+    for (int d = 0; d < 3; ++d) f[3 * i + d] = w.mass[i] * g[d];
+}
+
+void start_integration(World& w, const Simulation& sim, const std::vector<double>& f) {
+  const double dt = sim.dt;
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(w.n_owned);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+    for (int d = 0; d < 3; ++d)
+      w.x_prev[3 * i + d] = w.x[3 * i + d] - dt * w.v[3 * i + d] + 0.5 * dt * dt * w.inv_mass[i] * f[3 * i + d];
+}
+
+void unconstrained_step(World& w, const Simulation& sim, const std::vector<double>& f) {
+  const double dt = sim.dt;
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(w.n_owned);
+  if (sim.integrator == IntegratorKind::verlet) {
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t i = 0; i < n; ++i)
+      for (int d = 0; d < 3; ++d) {
+        const std::ptrdiff_t k = 3 * i + d;
+        const double xt = w.x[k];
+        const double xn = w.inv_mass[i] == 0 ? xt : 2 * xt - w.x_prev[k] + dt * dt * w.inv_mass[i] * f[k];
+        w.x_prev[k] = xt;
+        w.x[k] = xn;
+        w.v[k] = (xn - xt) / dt;
+      }
+  } else {
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t i = 0; i < n; ++i)
+      for (int d = 0; d < 3; ++d) {
+        const std::ptrdiff_t k = 3 * i + d;
+        w.x_prev[k] = w.x[k];
+        if (w.inv_mass[i] == 0) continue;
+        w.v[k] += dt * w.inv_mass[i] * f[k];
+        w.x[k] += dt * w.v[k];
+      }
+  }
+}
+
+}  // namespace softcontact

@@ -1,0 +1,65 @@
+#!/usr/bin/env bash
+# Command-line tests: exit codes, messages, outputs. Usage: cli_test.sh EXE MPIEXEC DATA WORK
+set -u
+exe=$1 mpiexec=$2 data=$3 work=$4
+rm -rf "$work" && mkdir -p "$work" && cd "$work" || exit 1
+fails=0 passes=0
+ok() { passes=$((passes + 1)); }
+bad() { echo "FAIL: $*"; fails=$((fails + 1)); }
+
+# expect CODE PATTERN -- command...: exit status CODE and PATTERN (grep -E) in stdout+stderr
+expect() {
+  local code=$1 pattern=$2; shift 3
+  local out rc
+  out=$("$@" 2>&1); rc=$?
+  if [ "$rc" != "$code" ]; then bad "'$*' exited $rc, expected $code; output:"; echo "$out" | head -20; return; fi
+  if ! grep -qE -- "$pattern" <<<"$out"; then bad "'$*' output lacks /$pattern/:"; echo "$out" | head -20; return; fi
+  if grep -qE 'terminate called|Segmentation|Aborted|core dumped|stack trace' <<<"$out"; then bad "'$*' crashed: $out"; return; fi
+  ok
+}
+
+expect 0 'run SCENE.yaml' -- "$exe" --help
+expect 0 '--output-every K' -- "$exe" run --help
+expect 0 '--overwrite' -- "$exe" run --help
+expect 0 'validate' -- "$exe" check --help
+expect 0 'PETSc' -- "$exe" info
+expect 2 "unknown command 'rn' \(did you mean 'run'\?\)" -- "$exe" rn x.yaml
+expect 2 'no command given' -- "$exe"
+expect 2 "unknown option '--stpes' \(did you mean '--steps'\?\)" -- "$exe" run "$data/scenes/small.yaml" --stpes 3
+expect 2 "--steps expects a positive integer, got '-3'" -- "$exe" run "$data/scenes/small.yaml" --steps=-3
+expect 2 "--steps expects a positive integer, got 'ten'" -- "$exe" run "$data/scenes/small.yaml" --steps ten
+expect 2 "missing.yaml: scene file does not exist" -- "$exe" run missing.yaml
+expect 2 "bad_poisson.yaml:5: 'poisson' of material 'soft' must lie in \(-1, 0.5\)" -- "$exe" check "$data/scenes/bad_poisson.yaml"
+expect 2 "typo.yaml:3: unknown key 'densty'.*did you mean 'density'" -- "$exe" run "$data/scenes/typo.yaml"
+expect 2 "meshes/missing_node_v22.msh:19: element 3 refers to node 99" -- "$exe" run "$data/scenes/broken_mesh.yaml"
+expect 2 "meshes/zero_tets_v22.msh: no 4-node tetrahedra" -- "$exe" run "$data/scenes/empty_mesh.yaml"
+[ ! -e output ] && ok || bad "a failed run left an output directory"
+# meshes from files: two Gmsh cubes (8 vertices, 6 tets each) and a TetGen cube
+expect 0 'total: 24 vertices, 18 tets' -- "$exe" check "$data/scenes/with_mesh.yaml"
+
+# check: a summary with the totals (2 cubes of 2x2x2 cells: 27 vertices, 48 tets each;
+# floor 4x4x1 cells: 50 vertices, 96 tets)
+expect 0 'total: 104 vertices, 192 tets' -- "$exe" check "$data/scenes/small.yaml"
+expect 0 'stable explicit time step' -- "$exe" check "$data/scenes/small.yaml"
+[ ! -e output ] && ok || bad "check wrote output"
+
+# run: output files, frames at steps 0,5,10,15,20
+expect 0 'output: +run1/frames.xdmf' -- "$exe" run "$data/scenes/small.yaml" --output run1 --quiet
+for f in frames.h5 frames.xdmf diagnostics.csv scene.yaml; do [ -s run1/$f ] && ok || bad "run1/$f missing"; done
+[ "$(grep -c '<Grid Name="frame_' run1/frames.xdmf)" = 5 ] && ok || bad "expected 5 frames in the XDMF"
+[ "$(wc -l < run1/diagnostics.csv)" = 6 ] && ok || bad "expected a header and 5 rows in diagnostics.csv"
+expect 2 "output directory 'run1' already exists; pass --overwrite" -- "$exe" run "$data/scenes/small.yaml" --output run1
+expect 0 'done: 7 steps' -- "$exe" run "$data/scenes/small.yaml" --output run1 --overwrite --steps 7 --output-every 3
+[ "$(grep -c '<Grid Name="frame_' run1/frames.xdmf)" = 4 ] && ok || bad "expected frames 0,3,6,7 after --overwrite"
+expect 0 't = ' -- "$exe" run "$data/scenes/small.yaml" --output run2 --end-time 0.001
+
+# under MPI: two ranks, the same positions as one rank (bitwise: same bytes in the
+# last frame), and bad input still exits 2 with one message
+expect 0 'on 2 rank' -- "$mpiexec" --oversubscribe -n 2 "$exe" run "$data/scenes/small.yaml" --output mpi2 --quiet
+if [ -s mpi2/frames.h5 ] && [ -s run1/frames.h5 ]; then ok; else bad "MPI run wrote no frames"; fi
+expect 2 "typo.yaml:3: unknown key 'densty'" -- "$mpiexec" --oversubscribe -n 2 "$exe" run "$data/scenes/typo.yaml"
+n=$("$mpiexec" --oversubscribe -n 2 "$exe" run "$data/scenes/typo.yaml" 2>&1 | grep -c "unknown key 'densty'")
+[ "$n" = 1 ] && ok || bad "bad input under MPI printed the message $n times, expected once"
+
+echo "cli: $passes passed, $fails failed"
+[ "$fails" = 0 ]

@@ -1,0 +1,27 @@
+// GoogleTest main for tests that use MPI (HDF5 output, diagnostics): MPI is started
+// around the tests, except when ctest only lists them.
+#include <gtest/gtest.h>
+#include <mpi.h>
+
+#include <cstring>
+
+int main(int argc, char** argv) {
+  bool listing = false;
+  for (int i = 1; i < argc; ++i) listing = listing || std::strncmp(argv[i], "--gtest_list_tests", 18) == 0;
+  ::testing::InitGoogleTest(&argc, argv);
+  if (listing) return RUN_ALL_TESTS();
+  int provided = 0;
+  MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  if (rank != 0) {
+    // Only rank 0 prints results; every rank runs every test (they are collective).
+    auto& listeners = ::testing::UnitTest::GetInstance()->listeners();
+    delete listeners.Release(listeners.default_result_printer());
+  }
+  const int failed = RUN_ALL_TESTS();
+  int any = 0;
+  MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+  MPI_Finalize();
+  return any;
+}

@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# The main job: set up (install, build), then run a scene under mpirun on all cores.
+# Usage: bash tools/run.sh [SCENE.yaml] [softcontact run options]
+#   default scene inputs/default.yaml, written to output/default (replaced on re-runs)
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+bash "$root/tools/setup.sh"
+cores=$(OMP_NUM_THREADS= nproc)   # nproc obeys OMP_NUM_THREADS, which env.sh sets
+source "$root/tools/env.sh"
+scene=${1:-$root/inputs/default.yaml}
+[ $# -gt 0 ] && shift
+args=("$@")
+if [ $# -eq 0 ] && [ "$scene" = "$root/inputs/default.yaml" ]; then args=(--output output/default --overwrite); fi
+ranks=${RANKS:-$cores}
+echo "softcontact: mpirun -n $ranks build/bin/softcontact run $scene ${args[*]}"
+exec mpirun -n "$ranks" --bind-to none "$root/build/bin/softcontact" run "$scene" "${args[@]}"

@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# The test suite: set up (install, build), then ctest. Long validation runs (label
+# 'long') are left out; run them with: bash tools/test.sh -L long
+# Extra arguments go to ctest.
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+bash "$root/tools/setup.sh"
+cores=$(OMP_NUM_THREADS= nproc)   # nproc obeys OMP_NUM_THREADS, which env.sh sets
+source "$root/tools/env.sh"
+cd "${BUILD_DIR:-$root/build}"
+if [ $# -eq 0 ]; then set -- -LE long; fi
+exec ctest --output-on-failure -j "$cores" "$@"
