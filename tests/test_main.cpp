@@ -1,7 +1,8 @@
-// GoogleTest main for tests that use MPI (HDF5 output, diagnostics): MPI is started
-// around the tests, except when ctest only lists them.
+// GoogleTest main for tests that use MPI (HDF5 output, diagnostics) and PETSc (implicit
+// Euler): both are started around the tests, except when ctest only lists them.
 #include <gtest/gtest.h>
 #include <mpi.h>
+#include <petscsys.h>
 
 #include <cstring>
 
@@ -12,6 +13,11 @@ int main(int argc, char** argv) {
   if (listing) return RUN_ALL_TESTS();
   int provided = 0;
   MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+  // PETSc after MPI, so that it leaves MPI to us; its options come from PETSC_OPTIONS.
+  if (PetscInitializeNoArguments() != 0) {
+    MPI_Finalize();
+    return 1;
+  }
   int rank = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   if (rank != 0) {
@@ -22,6 +28,7 @@ int main(int argc, char** argv) {
   const int failed = RUN_ALL_TESTS();
   int any = 0;
   MPI_Allreduce(&failed, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+  PetscFinalize();
   MPI_Finalize();
   return any;
 }

@@ -11,6 +11,9 @@ scene=${1:-$root/inputs/default.yaml}
 [ $# -gt 0 ] && shift
 args=("$@")
 if [ $# -eq 0 ] && [ "$scene" = "$root/inputs/default.yaml" ]; then args=(--output output/default --overwrite); fi
-ranks=${RANKS:-$cores}
-echo "softcontact: mpirun -n $ranks build/bin/softcontact run $scene ${args[*]}"
+# Until contacts can cross ranks (halo exchange), one rank with one OpenMP thread per
+# core is the fastest correct layout; RANKS and OMP_NUM_THREADS override it.
+ranks=${RANKS:-1}
+export OMP_NUM_THREADS=${SOFTCONTACT_THREADS:-$cores}
+echo "softcontact: mpirun -n $ranks build/bin/softcontact run $scene ${args[*]}  ($OMP_NUM_THREADS threads per rank)"
 exec mpirun -n "$ranks" --bind-to none "$root/build/bin/softcontact" run "$scene" "${args[@]}"

@@ -5,6 +5,12 @@
 // Input: the World after the unconstrained motion (World::x holds x~).
 // Output: one Collision record per (colliding vertex, penetrated body), in an order
 // fixed by global ids whatever the thread count. The contact response consumes them.
+//
+// docs/collision.md describes the algorithms: which vertices are queried (surface
+// vertices), the tie rule for points exactly on faces ("strictly inside": a point on a
+// face shared by two tets belongs to exactly one; a point on the body's surface to
+// none), the deep-intersection fallback, the thickness used by the tunnelling
+// diagnostic, and the cost.
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -36,11 +42,18 @@ struct Collision {
 struct CollisionStats {
   std::int64_t colliding_points = 0;    ///< distinct vertices inside another body
   std::int64_t collisions = 0;          ///< records (a vertex inside two bodies counts twice)
-  std::int64_t border_points = 0;       ///< colliding points with at least one border edge
+  std::int64_t border_points = 0;       ///< records whose point has at least one border edge into B
   std::int64_t deep_fallbacks = 0;      ///< regions with no border point: nearest-triangle fallback
-  std::int64_t self_collisions = 0;     ///< vertices inside a non-incident tet of their own object
-  std::int64_t degenerate_skipped = 0;  ///< degenerate triangles/tets/edges met and handled
-  double max_step_over_thickness = 0;   ///< largest |x~ - x^t| / thinnest object thickness (tunnelling risk)
+  std::int64_t self_collisions = 0;     ///< vertices inside a non-incident tet of their own object (no records)
+  std::int64_t degenerate_skipped = 0;  ///< degenerate triangles/tets/edges and non-finite positions met and handled
+  /// Largest |x~ - x^t| / thinnest object thickness (tunnelling risk; 0 without x^t).
+  /// Thickness: smallest extent of an object's vertices along its principal and
+  /// coordinate axes, at construction.
+  double max_step_over_thickness = 0;
+  std::int64_t surface_searches = 0;    ///< tet walks that gave up, replaced by a search of B's surface hierarchy
+  std::int64_t large_tets = 0;          ///< tets whose box spans more grid cells than there are query points: tested against every point
+  double detection_seconds = 0;         ///< wall time of broad and narrow phase [s]
+  double depth_seconds = 0;             ///< wall time of penetration vectors, T_i and weights [s]
 };
 
 struct CollisionSettings {

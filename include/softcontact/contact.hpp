@@ -23,8 +23,11 @@
 // takes the reaction. Forces on kinematic vertices are recorded, never applied.
 //
 // Friction (Coulomb, decoupled from the normal response as in the paper's Sec. 3.4) is
-// applied after the normal correction, as a pair of local forces per collision (on i and
-// -omega_ij times it on T_i), so it sums to zero too; see contact.cpp for the rule.
+// applied after the normal correction with the same local force pairs: the relative
+// tangential motion e_i of i against T_i within the step replaces d_i in (15)-(16), so
+// stiction removes it exactly where the normal response removes penetration exactly,
+// and friction sums to zero too. Coulomb's cone becomes |e_i| <= mu_s |d_i| (stick),
+// else e_i is scaled to mu_k |d_i| (slide); contact_solver.cpp derives this.
 #include <cstdint>
 #include <vector>
 
@@ -76,9 +79,13 @@ private:
   };
   struct Local {             // per collision
     std::int32_t slot[4];    // i, j, k, l
-    double fi[3];            // normal local force on i; on j: fT[k]
-    double fT[3][3];
-    double fn;               // |f_i|
+    // The local force pair is linear in the penetration vector: f_i = a_i d_i and
+    // f_Ti,j = a_j d_i (eqs 15, 16), with a_i + sum_j a_j = 0. Friction reuses the
+    // coefficients with a tangential vector in place of d_i.
+    double ai;
+    double aT[3];
+    double scale;            // friction: multiple of the tangential vector applied
+    double e[3];             // friction: tangential vector
   };
   std::int64_t normal_forces(const std::vector<Collision>& c, double dt);
   void friction_forces(const std::vector<Collision>& c, double dt, ContactStats& stats);

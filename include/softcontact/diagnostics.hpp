@@ -9,6 +9,7 @@
 #include <fstream>
 #include <string>
 
+#include "softcontact/forces.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/world.hpp"
 
@@ -27,6 +28,7 @@ struct StepDiagnostics {
   double time = 0;
   double kinetic_energy = 0;     ///< sum 1/2 m |v|^2 over movable vertices [J]
   double elastic_energy = 0;     ///< sum of the models' strain energies [J]
+  std::int64_t inverted_elements = 0;  ///< tets with det F <= 0 (inverted or flat)
   double potential_energy = 0;   ///< - sum m g . x over movable vertices [J]
   Vec3 momentum{};               ///< sum m v over movable vertices [kg m/s]
   std::int64_t contacts = 0;     ///< colliding points this step
@@ -36,8 +38,11 @@ struct StepDiagnostics {
 };
 
 /// Kinetic and potential energy and momentum of the owned vertices, summed per object in
-/// vertex order, then over objects in object order on rank 0 and broadcast. Collective.
-void reduce_mechanics(MPI_Comm comm, const Scene& scene, const World& world, StepDiagnostics& d);
+/// vertex order, and (when given) the per-object strain energy and inverted-tet count of
+/// ElasticForces::measure, then summed over objects in object order on rank 0 and
+/// broadcast. Collective.
+void reduce_mechanics(MPI_Comm comm, const Scene& scene, const World& world, StepDiagnostics& d,
+                      const ElasticMeasures* elastic = nullptr);
 
 /// The diagnostics CSV (rank 0 only; other ranks hold a closed writer).
 class DiagnosticsCsv {

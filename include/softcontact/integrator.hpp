@@ -1,14 +1,17 @@
 #pragma once
 // Unconstrained motion (step 2 of Algorithm 1, method.md) of the owned vertices under
-// forces f (n_local,3) [N]. Kinematic vertices (inverse mass 0) never move.
+// forces f (n_local,3) [N]: gravity + internal forces + Rayleigh damping (forces.hpp),
+// evaluated at x^t (and v^t). Kinematic vertices (inverse mass 0) never move.
 //
 //  position Verlet      x~ = 2 x^t - x^(t-dt) + dt^2 f / m,   v = (x~ - x^t) / dt
 //  symplectic Euler     v  = v^t + dt f / m,                  x~ = x^t + dt v
-//  implicit Euler       M (v - v^t) = dt f(x~), x~ = x^t + dt v; with the forces that
-//                       exist so far (gravity, independent of x) this equals symplectic
-//                       Euler exactly; the models' stiffness enters with the PETSc KSP
-//                       solve of the deformation-model work.
-// After the step x_prev holds x^t and x holds x~.
+//  implicit Euler       implicit_euler.hpp (ImplicitEuler::step): a linear solve per
+//                       object; unconstrained_step does not handle it.
+// After the step x_prev holds x^t and x holds x~. Both explicit schemes are stable for
+// dt below the limit that `dt: auto` uses (stable_time_step, docs/models.md).
+//
+// Velocities: Verlet's v is the backward difference (x~ - x^t) / dt, a first-order
+// estimate of v at the middle of the step; the damping forces of the next step use it.
 #include <vector>
 
 #include "softcontact/scene.hpp"
@@ -20,9 +23,11 @@ namespace softcontact {
 /// makes the first step exact for constant acceleration.
 void start_integration(World& w, const Simulation& sim, const std::vector<double>& f);
 
+/// Position Verlet or symplectic Euler (sim.integrator must not be implicit_euler).
 void unconstrained_step(World& w, const Simulation& sim, const std::vector<double>& f);
 
-/// External forces: gravity m g on every movable owned vertex, into f (resized, zeroed).
+/// External forces: gravity m g on every movable owned vertex, into f (resized, zeroed;
+/// kinematic vertices get 0, the models then add their internal forces).
 void gravity_forces(const World& w, const Vec3& g, std::vector<double>& f);
 
 }  // namespace softcontact

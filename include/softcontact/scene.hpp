@@ -93,11 +93,12 @@ Scene load_scene(const std::string& path);
 /// Same, from YAML text; `path` names it in messages and anchors relative mesh paths.
 Scene load_scene_from_string(const std::string& yaml, const std::string& path);
 
-/// Largest stable explicit time step of the movable objects:
-/// min over tets of h_min(tet) / c(material), where h_min is the smallest altitude
-/// (3 V / largest face area) and c = sqrt((lambda + 2 mu) / rho) (CFL condition for
-/// linear elasticity with lumped masses). Not multiplied by the safety factor.
-/// Returns +inf when nothing can move.
+/// Largest time step for which the explicit integrators are guaranteed stable on the
+/// movable objects, linearised about their rest state: 2 / max over tets of omega_T, the
+/// highest frequency of the tet alone with a quarter of its mass on each corner
+/// (tet_max_frequency in forces.hpp; Irons' element eigenvalue theorem). Takes each
+/// object's model into account (mass-spring has its own stiffness). Not multiplied by the
+/// safety factor. Returns +inf when nothing can move.
 double stable_time_step(const Scene& scene);
 
 /// Number of steps the run takes (from steps or ceil(end_time / dt)).

@@ -254,6 +254,10 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
         << omp_get_max_threads() << " thread(s); dt = " << s.sim.dt << " s, " << total_steps(s.sim) << " steps\n"
         << std::flush;
   }
+  if (rank == 0 && size > 1)
+    err << "softcontact: warning: contacts between objects on different ranks need the halo exchange, which is "
+           "not built yet: every object runs on rank 0 and the other "
+        << size - 1 << " rank(s) only take part in output; use OpenMP threads (OMP_NUM_THREADS) for speed\n";
   const RunSummary r = run_scene(comm, s, opt, out);
   if (rank == 0) {
     out << "done: " << r.steps << " steps to t = " << r.sim_time << " s in " << std::setprecision(3) << r.wall_seconds

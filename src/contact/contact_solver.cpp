@@ -51,8 +51,7 @@ std::int64_t ContactSolver::normal_forces(const std::vector<Collision>& col, dou
         MT += cj[k] * c.weight[k] * sj.mass;
       }
     }
-    for (int d = 0; d < 3; ++d) L.fi[d] = L.fT[0][d] = L.fT[1][d] = L.fT[2][d] = 0;
-    L.fn = 0;
+    L.ai = L.aT[0] = L.aT[1] = L.aT[2] = 0;
     if (i_fixed && any_kin) {  // two fixed sides: nothing can move
       ++fixed_pairs;
       continue;
@@ -60,104 +59,90 @@ std::int64_t ContactSolver::normal_forces(const std::vector<Collision>& col, dou
     if (any_kin) {
       // alpha = 1 (infinite M_T): i moves the whole way; the kinematic vertices of T_i
       // take the reaction in proportion to c_j omega_ij.
-      for (int d = 0; d < 3; ++d) L.fi[d] = ci * si.mass * c.depth[d] * inv_dt2;
-      for (int k = 0; k < 3; ++k) {
-        if (c.weight[k] <= 0 || slots_[L.slot[1 + k]].inv_mass != 0) continue;
-        const double share = cj[k] * c.weight[k] / kin_weight;
-        for (int d = 0; d < 3; ++d) L.fT[k][d] = -share * L.fi[d];
-      }
+      L.ai = ci * si.mass * inv_dt2;
+      for (int k = 0; k < 3; ++k)
+        if (c.weight[k] > 0 && slots_[L.slot[1 + k]].inv_mass == 0) L.aT[k] = -cj[k] * c.weight[k] / kin_weight * L.ai;
     } else if (i_fixed) {
       // alpha = 0 (infinite m_i): the triangle moves the whole way; i takes the reaction.
       for (int k = 0; k < 3; ++k) {
-        const double a = -cj[k] * c.weight[k] * slots_[L.slot[1 + k]].mass * inv_dt2;
-        for (int d = 0; d < 3; ++d) {
-          L.fT[k][d] = a * c.depth[d];
-          L.fi[d] -= L.fT[k][d];
-        }
+        L.aT[k] = -cj[k] * c.weight[k] * slots_[L.slot[1 + k]].mass * inv_dt2;
+        L.ai -= L.aT[k];
       }
     } else {
       const double cm = ci * si.mass;
-      const double alpha = MT / (cm + MT);                                  // (5)
-      for (int d = 0; d < 3; ++d) L.fi[d] = cm * alpha * c.depth[d] * inv_dt2;  // (15)
-      for (int k = 0; k < 3; ++k) {
-        const double a = -cj[k] * c.weight[k] * slots_[L.slot[1 + k]].mass * (1 - alpha) * inv_dt2;  // (16)
-        for (int d = 0; d < 3; ++d) L.fT[k][d] = a * c.depth[d];
-      }
+      const double alpha = MT / (cm + MT);  // (5)
+      L.ai = cm * alpha * inv_dt2;          // (15)
+      for (int k = 0; k < 3; ++k)
+        L.aT[k] = -cj[k] * c.weight[k] * slots_[L.slot[1 + k]].mass * (1 - alpha) * inv_dt2;  // (16)
     }
-    L.fn = norm3(L.fi);
   }
   // Scatter in collision order: every per-vertex sum has a fixed order (eq. 22).
   for (std::size_t q = 0; q < col.size(); ++q) {
     const Local& L = local_[q];
+    const double* d = col[q].depth.data();
     Slot& si = slots_[L.slot[0]];
-    for (int d = 0; d < 3; ++d) {
-      si.normal[d] += L.fi[d];
-      si.depth[d] += col[q].depth[d];
+    for (int a = 0; a < 3; ++a) {
+      si.normal[a] += L.ai * d[a];
+      si.depth[a] += d[a];
     }
     for (int k = 0; k < 3; ++k) {
       Slot& sj = slots_[L.slot[1 + k]];
-      for (int d = 0; d < 3; ++d) sj.normal[d] += L.fT[k][d];
+      for (int a = 0; a < 3; ++a) sj.normal[a] += L.aT[k] * d[a];
     }
   }
   return fixed_pairs;
 }
 
 void ContactSolver::friction_forces(const std::vector<Collision>& col, double dt, ContactStats& stats) {
-  // Method.md, "Friction": velocities implied by the corrected positions; relative
-  // tangential velocity u_t of i against the point of T_i it touches; the force that
-  // stops it within the step, f_t = -m_eff u_t / dt, limited by Coulomb's cone. A point
-  // that several constraints act on must not be stopped several times over: the
-  // stopping force is shared with the factor c_i / (collisions at i), the weights c that
-  // share the normal response (c_i = 1 against a fixed obstacle, 1/2 where two matching
-  // surfaces press into each other).
+  // Coulomb friction, decoupled from the normal response (the paper's Sec. 3.4) and
+  // computed with the same closed form. After the normal correction, the relative
+  // tangential motion of i against the point of T_i it touches within this step is
+  //   u_t dt,  u = (x_i - x_i^t - sum_j omega_ij (x_j - x_j^t)) / dt,  tangential to n = d/|d|.
+  // Undoing it is a second, tangential "penetration" e_i = -u_t dt, and the local force
+  // pair of eqs (15)-(16) with e_i in place of d_i (same alpha_i, same c_j) removes it
+  // exactly where the normal response removes the penetration exactly: stiction
+  // therefore leaves no creep. Because both pairs share their coefficients,
+  // |f_t| / |f_n| = |e_i| / |d_i| per collision, which makes Coulomb's law a clamp:
+  //   stick  if |e_i| <= mu_s |d_i|,   else slide with e_i scaled to mu_k |d_i|.
+  // The pair sums to zero like the normal one.
   const std::ptrdiff_t nc = static_cast<std::ptrdiff_t>(col.size());
-  const double inv_dt = 1.0 / dt;
   std::int64_t sticking = 0, sliding = 0;
 #pragma omp parallel for schedule(static) reduction(+ : sticking, sliding)
   for (std::ptrdiff_t q = 0; q < nc; ++q) {
     const Collision& c = col[q];
     Local& L = local_[q];
-    double* ft = L.fi;  // reused: the normal forces are already scattered
-    ft[0] = ft[1] = ft[2] = 0;
+    L.scale = 0;
+    L.e[0] = L.e[1] = L.e[2] = 0;
     const double dn = norm3(c.depth.data());
-    if (dn == 0 || L.fn == 0) continue;
+    if (dn == 0 || L.ai == 0) continue;
     const Friction& mu = friction_[object_material_[c.object]][object_material_[c.other_object]];
     if (mu.mu_static == 0 && mu.mu_kinetic == 0) continue;
     const double n[3] = {c.depth[0] / dn, c.depth[1] / dn, c.depth[2] / dn};
-    const Slot& si = slots_[L.slot[0]];
     double u[3];
     for (int d = 0; d < 3; ++d) {
-      u[d] = si.dx[d];
+      u[d] = slots_[L.slot[0]].dx[d];
       for (int k = 0; k < 3; ++k) u[d] -= c.weight[k] * slots_[L.slot[1 + k]].dx[d];
-      u[d] *= inv_dt;
     }
     const double un = u[0] * n[0] + u[1] * n[1] + u[2] * n[2];
-    const double ut[3] = {u[0] - un * n[0], u[1] - un * n[1], u[2] - un * n[2]};
-    const double ut_len = norm3(ut);
-    if (ut_len == 0) continue;
-    double inv_meff = si.inv_mass;
-    for (int k = 0; k < 3; ++k) inv_meff += c.weight[k] * c.weight[k] * slots_[L.slot[1 + k]].inv_mass;
-    if (inv_meff == 0) continue;  // both sides fixed
-    const double share = 1.0 / ((1.0 + si.column_sum) * si.count);
-    const double stop = share * ut_len * inv_dt / inv_meff;  // |f_t| that stops the sliding
-    double mag;
-    if (stop <= mu.mu_static * L.fn) {
-      mag = stop;
+    for (int d = 0; d < 3; ++d) L.e[d] = -(u[d] - un * n[d]);
+    const double en = norm3(L.e);
+    if (en == 0) continue;
+    if (en <= mu.mu_static * dn) {
+      L.scale = 1;
       ++sticking;
     } else {
-      mag = mu.mu_kinetic * L.fn;
+      L.scale = mu.mu_kinetic * dn / en;
       ++sliding;
     }
-    for (int d = 0; d < 3; ++d) ft[d] = -mag * ut[d] / ut_len;
   }
   stats.sticking = sticking;
   stats.sliding = sliding;
   for (std::size_t q = 0; q < col.size(); ++q) {
     const Local& L = local_[q];
-    const Collision& c = col[q];
-    for (int d = 0; d < 3; ++d) slots_[L.slot[0]].friction[d] += L.fi[d];
+    if (L.scale == 0) continue;
+    for (int d = 0; d < 3; ++d) slots_[L.slot[0]].friction[d] += L.ai * L.scale * L.e[d];
     for (int k = 0; k < 3; ++k)
-      for (int d = 0; d < 3; ++d) slots_[L.slot[1 + k]].friction[d] -= c.weight[k] * L.fi[d];
+      for (int d = 0; d < 3; ++d) slots_[L.slot[1 + k]].friction[d] += L.aT[k] * L.scale * L.e[d];
   }
 }
 

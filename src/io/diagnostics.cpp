@@ -21,8 +21,11 @@ PhaseTimes PhaseTimes::scaled(double s) const {
   return {forces * s, integrate * s, detect * s, depth * s, contact * s, comm * s, output * s};
 }
 
-void reduce_mechanics(MPI_Comm comm, const Scene& scene, const World& w, StepDiagnostics& d) {
-  constexpr int K = 5;  // kinetic, potential, px, py, pz
+void reduce_mechanics(MPI_Comm comm, const Scene& scene, const World& w, StepDiagnostics& d,
+                      const ElasticMeasures* elastic) {
+  // kinetic, potential, px, py, pz, elastic energy, inverted tets (a count, exact as a
+  // double far beyond any mesh size)
+  constexpr int K = 7;
   const Vec3& g = scene.sim.gravity;
   std::vector<double> mine(K * w.owned_objects.size(), 0.0);
   // Owned vertices are stored object by object in owned_objects order.
@@ -38,6 +41,11 @@ void reduce_mechanics(MPI_Comm comm, const Scene& scene, const World& w, StepDia
     s[1] -= m * (g[0] * x[0] + g[1] * x[1] + g[2] * x[2]);
     for (int c = 0; c < 3; ++c) s[2 + c] += m * v[c];
   }
+  if (elastic)
+    for (std::size_t k = 0; k < w.owned_objects.size(); ++k) {
+      mine[K * k + 5] = elastic->energy[k];
+      mine[K * k + 6] = static_cast<double>(elastic->inverted[k]);
+    }
   int rank = 0, size = 1;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);
@@ -55,7 +63,7 @@ void reduce_mechanics(MPI_Comm comm, const Scene& scene, const World& w, StepDia
     all.resize(static_cast<std::size_t>(off));
   }
   MPI_Gatherv(mine.data(), count, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, 0, comm);
-  double totals[K] = {0, 0, 0, 0, 0};
+  double totals[K] = {0, 0, 0, 0, 0, 0, 0};
   if (rank == 0) {
     // Blocks arrive grouped by rank; re-sort them into object order before summing.
     std::vector<const double*> by_object(w.layout.size(), nullptr);
@@ -71,11 +79,13 @@ void reduce_mechanics(MPI_Comm comm, const Scene& scene, const World& w, StepDia
   d.kinetic_energy = totals[0];
   d.potential_energy = totals[1];
   d.momentum = {totals[2], totals[3], totals[4]};
+  d.elastic_energy = totals[5];
+  d.inverted_elements = static_cast<std::int64_t>(totals[6]);
 }
 
 const char* DiagnosticsCsv::header() {
   return "step,time,kinetic_energy,elastic_energy,potential_energy,momentum_x,momentum_y,momentum_z,"
-         "contacts,residual_penetration,contact_force_balance,"
+         "contacts,residual_penetration,contact_force_balance,inverted_elements,"
          "t_forces,t_integrate,t_detect,t_depth,t_contact,t_comm,t_output,t_total";
 }
 
@@ -91,11 +101,11 @@ void DiagnosticsCsv::write(const StepDiagnostics& d) {
   char buf[1024];
   const PhaseTimes& t = d.seconds;
   std::snprintf(buf, sizeof buf,
-                "%lld,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%lld,%.17g,%.17g,%.6e,%.6e,%.6e,%.6e,%.6e,%.6e,%.6e,%.6e\n",
+                "%lld,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%lld,%.17g,%.17g,%lld,%.6e,%.6e,%.6e,%.6e,%.6e,%.6e,%.6e,%.6e\n",
                 static_cast<long long>(d.step), d.time, d.kinetic_energy, d.elastic_energy, d.potential_energy,
                 d.momentum[0], d.momentum[1], d.momentum[2], static_cast<long long>(d.contacts),
-                d.residual_penetration, d.contact_force_balance, t.forces, t.integrate, t.detect, t.depth, t.contact,
-                t.comm, t.output, t.total());
+                d.residual_penetration, d.contact_force_balance, static_cast<long long>(d.inverted_elements),
+                t.forces, t.integrate, t.detect, t.depth, t.contact, t.comm, t.output, t.total());
   out_ << buf;
   out_.flush();  // a killed batch job keeps every row written so far
 }

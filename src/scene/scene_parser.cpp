@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "softcontact/error.hpp"
+#include "softcontact/forces.hpp"
 #include "softcontact/mesh_io.hpp"
 #include "softcontact/primitives.hpp"
 #include "softcontact/scene.hpp"
@@ -532,6 +533,19 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path) {
   const std::filesystem::path dir = std::filesystem::path(path).parent_path();
   parse_objects(r, r.require(root, "objects", "the scene"), scene, dir);
 
+  // Implicit Euler needs a symmetric positive (semi-)definite stiffness: the linear model's
+  // and the corotational model's warped one. The non-linear models' exact tangents are
+  // indefinite under compression, and CG would break down (docs/models.md).
+  if (scene.sim.integrator == IntegratorKind::implicit_euler)
+    for (const auto& o : scene.objects) {
+      const Material& mat = scene.materials[o.material];
+      if (o.kinematic || mat.model == ModelKind::linear || mat.model == ModelKind::corotational) continue;
+      r.fail(root["simulation"]["integrator"],
+             std::string("integrator 'implicit_euler' supports the models 'linear' and 'corotational' only, but object '") +
+                 o.name + "' uses material '" + mat.name + "' with model '" + to_string(mat.model) +
+                 "'; use integrator 'verlet' or 'symplectic_euler', or one of these models");
+    }
+
   // Time step: from the stability limit, or checked against it.
   const double stable = stable_time_step(scene);
   if (scene.sim.dt_auto) {
@@ -541,7 +555,7 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path) {
   } else if (scene.sim.integrator != IntegratorKind::implicit_euler && scene.sim.dt > stable) {
     std::ostringstream s;
     s << path << ": warning: dt = " << scene.sim.dt << " s exceeds the stable explicit limit " << stable
-      << " s (smallest element height / wave speed); expect an unstable run, or use 'dt: auto'";
+      << " s (2 / the highest element frequency, docs/models.md); expect an unstable run, or use 'dt: auto'";
     scene.warnings.push_back(s.str());
   }
   if (scene.sim.output_dir.empty())
@@ -560,27 +574,22 @@ Scene load_scene(const std::string& path) {
 }
 
 double stable_time_step(const Scene& scene) {
-  double dt = std::numeric_limits<double>::infinity();
+  double wmax = 0;
   for (const auto& o : scene.objects) {
     if (o.kinematic) continue;
-    const double c = scene.materials[o.material].wave_speed();
+    const Material& mat = scene.materials[o.material];
     const TetMesh& m = o.mesh;
-    for (std::size_t t = 0; t < m.num_tets(); ++t) {
-      const index_t* tet = m.tets.data() + 4 * t;
-      const double* p[4];
-      for (int k = 0; k < 4; ++k) p[k] = m.points.data() + 3 * static_cast<std::size_t>(tet[k]);
-      const double vol = std::abs(signed_tet_volume(p[0], p[1], p[2], p[3]));
-      double amax = 0;
-      for (int f = 0; f < 4; ++f) {
-        const double *a = p[(f + 1) % 4], *b = p[(f + 2) % 4], *cc = p[(f + 3) % 4];
-        const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-        const double v[3] = {cc[0] - a[0], cc[1] - a[1], cc[2] - a[2]};
-        amax = std::max(amax, 0.5 * std::hypot(u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]));
-      }
-      dt = std::min(dt, 3.0 * vol / amax / c);
+    const std::ptrdiff_t nt = static_cast<std::ptrdiff_t>(m.num_tets());
+    // A maximum is exact in any order: the result does not depend on the threads.
+#pragma omp parallel for schedule(static) reduction(max : wmax) if (nt > 1024)
+    for (std::ptrdiff_t t = 0; t < nt; ++t) {
+      double X[12];
+      for (int k = 0; k < 4; ++k)
+        for (int d = 0; d < 3; ++d) X[3 * k + d] = m.points[3 * static_cast<std::size_t>(m.tets[4 * t + k]) + d];
+      wmax = std::max(wmax, tet_max_frequency(X, mat));
     }
   }
-  return dt;
+  return wmax > 0 ? 2 / wmax : std::numeric_limits<double>::infinity();
 }
 
 std::int64_t total_steps(const Simulation& sim) {

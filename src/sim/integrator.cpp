@@ -1,29 +1,39 @@
 #include "softcontact/integrator.hpp"
 
+#include "softcontact/error.hpp"
+
 namespace softcontact {
+
+namespace {
+/// Below this many vertices these loops run on one thread: starting a team would cost
+/// more than the loop. (Every vertex is computed alone, so the result never depends on it.)
+constexpr std::ptrdiff_t kParallelVertices = 4096;
+}  // namespace
 
 void gravity_forces(const World& w, const Vec3& g, std::vector<double>& f) {
   f.assign(3 * w.n_local(), 0.0);
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(w.n_owned);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelVertices)
   for (std::ptrdiff_t i = 0; i < n; ++i)
-    for (int d = 0; d < 3; ++d) f[3 * i + d] = w.mass[i] * g[d];
+    if (w.inv_mass[i] != 0)
+      for (int d = 0; d < 3; ++d) f[3 * i + d] = w.mass[i] * g[d];
 }
 
 void start_integration(World& w, const Simulation& sim, const std::vector<double>& f) {
   const double dt = sim.dt;
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(w.n_owned);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelVertices)
   for (std::ptrdiff_t i = 0; i < n; ++i)
     for (int d = 0; d < 3; ++d)
       w.x_prev[3 * i + d] = w.x[3 * i + d] - dt * w.v[3 * i + d] + 0.5 * dt * dt * w.inv_mass[i] * f[3 * i + d];
 }
 
 void unconstrained_step(World& w, const Simulation& sim, const std::vector<double>& f) {
+  SC_ASSERT(sim.integrator != IntegratorKind::implicit_euler);
   const double dt = sim.dt;
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(w.n_owned);
   if (sim.integrator == IntegratorKind::verlet) {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelVertices)
     for (std::ptrdiff_t i = 0; i < n; ++i)
       for (int d = 0; d < 3; ++d) {
         const std::ptrdiff_t k = 3 * i + d;
@@ -34,7 +44,7 @@ void unconstrained_step(World& w, const Simulation& sim, const std::vector<doubl
         w.v[k] = (xn - xt) / dt;
       }
   } else {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelVertices)
     for (std::ptrdiff_t i = 0; i < n; ++i)
       for (int d = 0; d < 3; ++d) {
         const std::ptrdiff_t k = 3 * i + d;

@@ -14,7 +14,7 @@
 #include "softcontact/diagnostics.hpp"
 #include "softcontact/error.hpp"
 #include "softcontact/frame_writer.hpp"
-#include "softcontact/integrator.hpp"
+#include "softcontact/simulator.hpp"
 #include "softcontact/world.hpp"
 
 namespace softcontact {
@@ -101,16 +101,16 @@ void check_output_dir(MPI_Comm comm, const std::string& dir, bool overwrite) {
 }
 
 RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, std::ostream& log) {
-  int rank = 0, size = 1;
+  int rank = 0;
   MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &size);
   const Simulation& sim = scene.sim;
   const std::int64_t nsteps = total_steps(sim);
   const std::int64_t every = steps_between_frames(sim);
 
   check_output_dir(comm, sim.output_dir, opt.overwrite);
 
-  World world = build_world(scene, block_partition(scene, size), rank);
+  // The models' rest state is the world as built (before any step).
+  Simulator simulator(comm, scene);
 
   // Everything is validated: only now touch the file system.
   RunSummary summary;
@@ -129,45 +129,31 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
   MPI_Bcast(&made, 1, MPI_INT, 0, comm);
   if (!made) throw RuntimeFailure("cannot create the output directory '" + sim.output_dir + "'");
 
+  World& world = simulator.world();
   FrameWriter writer(comm, summary.h5, summary.xdmf, scene, world);
   DiagnosticsCsv csv;
   if (rank == 0) csv.open(summary.csv);
 
-  std::vector<double> f;
-  PhaseTimes acc;
-  std::int64_t acc_steps = 0;
-
-  auto record = [&](std::int64_t step) {
+  auto record = [&] {
     const double t0 = now();
     StepDiagnostics d;
-    d.step = step;
-    d.time = static_cast<double>(step) * sim.dt;
-    reduce_mechanics(comm, scene, world, d);
-    writer.write_frame(step, d.time, world);
+    simulator.measure(d);
+    writer.write_frame(d.step, d.time, world,
+                       {{"contact_forces", "contact_force", 3, simulator.contact_force().data()},
+                        {"penetration", "penetration", 3, simulator.penetration().data()}});
+    std::int64_t steps = 0;
+    PhaseTimes acc = simulator.take_times(steps);
     acc.output += now() - t0;
-    d.seconds = acc_steps > 0 ? acc.scaled(1.0 / static_cast<double>(acc_steps)) : acc;
+    d.seconds = steps > 0 ? acc.scaled(1.0 / static_cast<double>(steps)) : acc;
     if (rank == 0) csv.write(d);
-    acc = PhaseTimes{};
-    acc_steps = 0;
   };
-
-  gravity_forces(world, sim.gravity, f);
-  start_integration(world, sim, f);
-  record(0);
+  record();
 
   Progress progress(log, rank == 0 && !opt.quiet, nsteps, sim.dt);
   const double wall0 = now();
   for (std::int64_t step = 1; step <= nsteps; ++step) {
-    double t = now();
-    gravity_forces(world, sim.gravity, f);  // internal forces join here (deformation models)
-    acc.forces += now() - t;
-    t = now();
-    unconstrained_step(world, sim, f);
-    acc.integrate += now() - t;
-    // Collision detection, penetration depth and the analytic contact response (steps
-    // 3-5 of Algorithm 1) join here.
-    ++acc_steps;
-    if (step % every == 0 || step == nsteps) record(step);
+    simulator.step();
+    if (step % every == 0 || step == nsteps) record();
     progress.update(step);
   }
   writer.close();

@@ -1,9 +1,12 @@
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <cmath>
+#include <sstream>
 #include <string>
 
 #include "softcontact/error.hpp"
+#include "softcontact/forces.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/world.hpp"
 
@@ -69,30 +72,102 @@ TEST(SceneParser, MaterialsAndWaveSpeed) {
   EXPECT_EQ(s.sim.output_dir, "output/scene");
 }
 
-TEST(SceneParser, AutoTimeStepIsSafetyTimesSmallestAltitudeOverWaveSpeed) {
+/// 2 / omega_max of the assembled, linearised system of object 0 (M^-1/2 K M^-1/2, dense):
+/// the true stability limit of Verlet and symplectic Euler at rest.
+double true_stable_step(const Scene& s) {
+  const World w = build_world(s, block_partition(s, 1), 0);
+  const ElasticForces ef(s, w);
+  const auto n = static_cast<Eigen::Index>(3 * w.n_owned);
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(n, n);
+  double K[144];
+  for (std::size_t t = 0; t < w.tet_gid.size(); ++t) {
+    ef.tet_stiffness(t, w.x.data(), StiffnessKind::exact, K);
+    const index_t* c = &w.tets[4 * t];
+    for (int a = 0; a < 12; ++a)
+      for (int b = 0; b < 12; ++b)
+        A(3 * c[a / 3] + a % 3, 3 * c[b / 3] + b % 3) +=
+            K[12 * a + b] / std::sqrt(w.mass[c[a / 3]] * w.mass[c[b / 3]]);
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(A, Eigen::EigenvaluesOnly);
+  return 2 / std::sqrt(es.eigenvalues().maxCoeff());
+}
+
+// dt: auto = dt_safety x the guaranteed explicit limit 2 / max_T omega_T, omega_T the
+// highest frequency of each tet alone with a quarter of its mass per corner (Irons'
+// element eigenvalue bound, docs/models.md). Against the true limit of the assembled cube
+// (2 / omega_max, dense eigenvalues): the bound lies below it, as it must, at 0.763 of it
+// here; the former estimate h_min / c (smallest altitude over the wave speed) lies above
+// it on Kuhn-split boxes (1.070 of it here), so that dt_safety = 1 was unstable.
+TEST(SceneParser, AutoTimeStepIsSafetyTimesTheGuaranteedStableLimit) {
   const Scene s = load_scene_from_string(scene_with(kBox, "  dt: auto\n  dt_safety: 0.4\n  steps: 10\n"), "scene.yaml");
-  // Brute force: the smallest vertex-to-opposite-face distance over all tets.
   const TetMesh& m = s.objects[0].mesh;
-  double hmin = HUGE_VAL;
+  double wmax = 0, hmin = HUGE_VAL;
   for (std::size_t t = 0; t < m.num_tets(); ++t) {
+    double X[12];
     const double* p[4];
-    for (int k = 0; k < 4; ++k) p[k] = &m.points[3 * m.tets[4 * t + k]];
+    for (int k = 0; k < 4; ++k) {
+      p[k] = &m.points[3 * m.tets[4 * t + k]];
+      for (int d = 0; d < 3; ++d) X[3 * k + d] = p[k][d];
+    }
+    wmax = std::max(wmax, tet_max_frequency(X, s.materials[0]));
     for (int k = 0; k < 4; ++k)
       hmin = std::min(hmin, point_plane_distance(p[k], p[(k + 1) % 4], p[(k + 2) % 4], p[(k + 3) % 4]));
   }
-  EXPECT_NEAR(stable_time_step(s), hmin / 10.0, 1e-15);
-  EXPECT_NEAR(s.sim.dt, 0.4 * hmin / 10.0, 1e-15);
+  EXPECT_DOUBLE_EQ(stable_time_step(s), 2 / wmax);
+  EXPECT_DOUBLE_EQ(s.sim.dt, 0.4 * 2 / wmax);
   EXPECT_TRUE(s.warnings.empty());
+  const double limit = true_stable_step(s);
+  EXPECT_LE(stable_time_step(s), limit);
+  EXPECT_GT(stable_time_step(s), 0.6 * limit);
+  EXPECT_GT(hmin / s.materials[0].wave_speed(), limit);
+  RecordProperty("bound_over_limit", std::to_string(stable_time_step(s) / limit));
+  RecordProperty("former_over_limit", std::to_string(hmin / s.materials[0].wave_speed() / limit));
+}
+
+// The mass-spring model's limit follows its springs (k_e = E V / L_e^2), not the Poisson
+// ratio of the material (which the model does not use).
+TEST(SceneParser, MassSpringLimitIgnoresPoissonRatio) {
+  auto limit = [](const char* nu) {
+    return stable_time_step(load_scene_from_string(
+        std::string("simulation: {dt: auto, steps: 1}\nmaterials:\n  - {name: s, model: mass_spring, young: 1e5, "
+                    "poisson: ") + nu + ", density: 1000}\nobjects:\n  - material: s\n"
+                    "    primitive: {type: box, size: [1, 1, 1], cells: [2, 2, 2]}\n",
+        "scene.yaml"));
+  };
+  EXPECT_EQ(limit("0.0"), limit("0.45"));
+  const Scene s = load_scene_from_string(
+      "simulation: {dt: auto, steps: 1}\nmaterials:\n  - {name: s, model: mass_spring, young: 1e5, poisson: 0.3, "
+      "density: 1000}\nobjects:\n  - material: s\n    primitive: {type: box, size: [1, 1, 1], cells: [2, 2, 2]}\n",
+      "scene.yaml");
+  EXPECT_LE(stable_time_step(s), true_stable_step(s));
 }
 
 TEST(SceneParser, TimeStepAboveStableLimitWarnsWithTheLimit) {
   const Scene s = load_scene_from_string(scene_with(kBox, "  dt: 0.05\n  end_time: 1.0\n"), "scene.yaml");
-  // cells of 0.5 m: the smallest height of a Kuhn tet is 0.5 / sqrt(2) = 0.35355 m, so
-  // the limit is 0.035355 s at c = 10 m/s
+  // All 48 Kuhn tets of the box are congruent: the limit is 2 / omega of any one of them
+  // (0.0252214 s for cells of 0.5 m at c = 10 m/s).
+  const TetMesh& m = s.objects[0].mesh;
+  double X[12];
+  for (int k = 0; k < 4; ++k)
+    for (int d = 0; d < 3; ++d) X[3 * k + d] = m.points[3 * m.tets[k] + d];
+  std::ostringstream limit;
+  limit << 2 / tet_max_frequency(X, s.materials[0]);
   ASSERT_EQ(s.warnings.size(), 1u);
-  EXPECT_NE(s.warnings[0].find("exceeds the stable explicit limit"), std::string::npos);
-  EXPECT_NE(s.warnings[0].find("0.0353553"), std::string::npos) << s.warnings[0];
+  EXPECT_NE(s.warnings[0].find("exceeds the stable explicit limit " + limit.str() + " s"), std::string::npos)
+      << s.warnings[0];
+  EXPECT_EQ(limit.str(), "0.0252214");
   EXPECT_EQ(total_steps(s.sim), 20);
+}
+
+// Implicit Euler needs a positive semi-definite stiffness (linear, corotational): other
+// models are an input error at the 'integrator' line, naming object, material and model.
+TEST(SceneParser, ImplicitEulerRejectsNonLinearModels) {
+  std::string yaml = scene_with(kBox, "  dt: 0.001\n  steps: 10\n  integrator: implicit_euler\n");
+  yaml.replace(yaml.find("model: corotational"), 19, "model: stvk");
+  expect_error(yaml, {"scene.yaml:4:", "'implicit_euler'", "object 'cube'", "material 'rubber'", "model 'stvk'"});
+  // Linear and corotational are fine, and so are other models on kinematic objects.
+  EXPECT_NO_THROW(load_scene_from_string(scene_with(kBox, "  dt: 0.001\n  steps: 10\n  integrator: implicit_euler\n"),
+                                         "scene.yaml"));
 }
 
 TEST(SceneParser, StepsAndFramesFromEndTimeAndInterval) {

@@ -1,0 +1,160 @@
+// Collision detection and penetration depth on 200 tori (the paper's 200-tori scene has
+// 80K tets and about 2,500 contacts; method.md, "What the paper reports"). Run on one
+// core: OMP_NUM_THREADS=1 (tools/env.sh sets it).
+//
+// Every torus is make_torus(R = 0.1, a = 0.04, around = 13, tube = 2): 390 tets and 104
+// vertices (52 on the surface), so 78,000 tets and 20,800 vertices in all. Two layouts:
+//  - pile: centred on an 8 x 5 x 5 lattice 0.1625 m apart with uniformly random
+//    orientations (fixed seed). Each torus's box overlaps those of its 26 neighbours and
+//    its tube passes through theirs here and there: 2,564 colliding points. A dense
+//    case: 85 % of the surface vertices are near another torus and nearly every tet
+//    has foreign points near it.
+//  - chains: 10 chains of 20 links (the paper's chained tori, without the membrane):
+//    each link touches only its two neighbours, 1,154 colliding points, most tets far
+//    from any contact.
+//
+// Reported: the detection phase (broad and narrow) and the penetration-depth phase
+// separately (CollisionStats::detection_seconds / depth_seconds as manual time), and
+// the whole detect() call, with the counts as counters.
+#include <benchmark/benchmark.h>
+
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <random>
+
+#include "softcontact/collision.hpp"
+#include "softcontact/primitives.hpp"
+#include "softcontact/scene.hpp"
+#include "softcontact/world.hpp"
+
+using namespace softcontact;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Uniform random rotation (Shoemake's quaternion method) from three uniforms in [0, 1).
+std::array<double, 9> random_rotation(double u1, double u2, double u3) {
+  const double a = std::sqrt(1 - u1), b = std::sqrt(u1);
+  const double qw = a * std::sin(2 * kPi * u2), qx = a * std::cos(2 * kPi * u2);
+  const double qy = b * std::sin(2 * kPi * u3), qz = b * std::cos(2 * kPi * u3);
+  return {1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw),     2 * (qx * qz + qy * qw),
+          2 * (qx * qy + qz * qw),     1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw),
+          2 * (qx * qz - qy * qw),     2 * (qy * qz + qx * qw),     1 - 2 * (qx * qx + qy * qy)};
+}
+
+double unit(std::mt19937_64& g) { return static_cast<double>(g() >> 11) * 0x1.0p-53; }
+
+Scene torus_scene() {
+  Scene s;
+  Material m;
+  m.name = "m";
+  m.young = 1e5;
+  m.poisson = 0.3;
+  m.density = 1000;
+  s.materials.push_back(m);
+  return s;
+}
+
+void place(Scene& s, const TetMesh& mesh, const std::array<double, 9>& r, const double* c) {
+  SceneObject o;
+  o.name = "torus";
+  o.mesh = mesh;
+  for (std::size_t v = 0; v < mesh.num_vertices(); ++v) {
+    const double* p = &mesh.points[3 * v];
+    for (int d = 0; d < 3; ++d)
+      o.mesh.points[3 * v + d] = c[d] + r[3 * d] * p[0] + r[3 * d + 1] * p[1] + r[3 * d + 2] * p[2];
+  }
+  s.objects.push_back(std::move(o));
+}
+
+World torus_pile(double spacing) {
+  const TetMesh torus = make_torus(0.1, 0.04, 13, 2);
+  Scene s = torus_scene();
+  std::mt19937_64 g(20070601);
+  for (int i = 0; i < 8; ++i)
+    for (int j = 0; j < 5; ++j)
+      for (int k = 0; k < 5; ++k) {
+        const double u1 = unit(g), u2 = unit(g), u3 = unit(g);
+        const double c[3] = {i * spacing, j * spacing, k * spacing};
+        place(s, torus, random_rotation(u1, u2, u3), c);
+      }
+  return build_world(s, block_partition(s, 1), 0);
+}
+
+// 10 chains of 20 links along x, 0.4 m apart; links alternate between the xy and the xz
+// plane, each tilted by a few degrees at random about x, and consecutive centres are
+// `pitch` apart: 2 (R - a) = 0.12 would make the tubes touch, more pulls them into each
+// other (every link overlaps its two neighbours).
+World torus_chains(double pitch) {
+  const TetMesh torus = make_torus(0.1, 0.04, 13, 2);
+  Scene s = torus_scene();
+  std::mt19937_64 g(20070601);
+  for (int j = 0; j < 10; ++j)
+    for (int i = 0; i < 20; ++i) {
+      const double tilt = (unit(g) - 0.5) * 0.2 + (i % 2 ? kPi / 2 : 0);  // about x
+      const double c = std::cos(tilt), sn = std::sin(tilt);
+      const std::array<double, 9> r = {1, 0, 0, 0, c, -sn, 0, sn, c};
+      const double centre[3] = {i * pitch, j * 0.4, 0};
+      place(s, torus, r, centre);
+    }
+  return build_world(s, block_partition(s, 1), 0);
+}
+
+// Lattice spacing [m]: chosen once by scanning 0.120 .. 0.200 for the count nearest
+// 2,500 colliding points (0.200 gives 890, 0.160 gives 2,745).
+constexpr double kSpacing = 0.1625;
+// Chain pitch [m]: the tubes of consecutive links overlap by 2a - |2R - pitch| = 0.03.
+constexpr double kPitch = 0.15;
+
+enum class Layout { pile, chains };
+enum class Phase { detection, depth, total };
+
+const World& scene(Layout s) {
+  static const World pile = torus_pile(kSpacing);
+  static const World chains = torus_chains(kPitch);
+  return s == Layout::pile ? pile : chains;
+}
+
+void run(benchmark::State& state, Layout sc, Phase phase) {
+  const World& w = scene(sc);
+  CollisionDetector det(w, {});
+  std::vector<Collision> c;
+  CollisionStats st;
+  det.detect(w, nullptr, c, st);  // warm: buffers grown
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    det.detect(w, nullptr, c, st);
+    const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    state.SetIterationTime(phase == Phase::detection ? st.detection_seconds
+                           : phase == Phase::depth   ? st.depth_seconds
+                                                     : total);
+    benchmark::DoNotOptimize(c.data());
+  }
+  state.counters["colliding_points"] = static_cast<double>(st.colliding_points);
+  state.counters["collisions"] = static_cast<double>(st.collisions);
+  state.counters["border_points"] = static_cast<double>(st.border_points);
+  state.counters["deep_fallbacks"] = static_cast<double>(st.deep_fallbacks);
+  state.counters["surface_searches"] = static_cast<double>(st.surface_searches);
+  state.counters["tets"] = static_cast<double>(w.tets.size() / 4);
+  state.counters["vertices"] = static_cast<double>(w.n_local());
+}
+
+void BM_Detection_Pile(benchmark::State& s) { run(s, Layout::pile, Phase::detection); }
+void BM_Depth_Pile(benchmark::State& s) { run(s, Layout::pile, Phase::depth); }
+void BM_Detect_Pile(benchmark::State& s) { run(s, Layout::pile, Phase::total); }
+void BM_Detection_Chains(benchmark::State& s) { run(s, Layout::chains, Phase::detection); }
+void BM_Depth_Chains(benchmark::State& s) { run(s, Layout::chains, Phase::depth); }
+void BM_Detect_Chains(benchmark::State& s) { run(s, Layout::chains, Phase::total); }
+
+}  // namespace
+
+BENCHMARK(BM_Detection_Pile)->UseManualTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Depth_Pile)->UseManualTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Detect_Pile)->UseManualTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Detection_Chains)->UseManualTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Depth_Chains)->UseManualTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Detect_Chains)->UseManualTime()->Unit(benchmark::kMillisecond);
+
+BENCHMARK_MAIN();

@@ -1,0 +1,122 @@
+#pragma once
+// Internal forces of the deformation models: the "black box" p(x) of step 1 of the
+// paper's Algorithm 1 (method.md), plus Rayleigh damping. docs/models.md describes the
+// models (energies, stresses, parameters) and the damping.
+//
+// Assembly without atomics and in a fixed order (style.md, after LAMMPS reduce_thr):
+//  1. per tet (OpenMP over blocks of tets): corner forces (4,3) into a per-tet buffer;
+//  2. per vertex (OpenMP over vertices): the sum of its corners' entries, taken over the
+//     incident tets in increasing tet global id (a CSR incidence built once).
+// Every tet's forces depend only on that tet, and every sum has a fixed order, so the
+// result is bitwise the same for any number of threads (and of ranks, since objects are
+// never split across ranks).
+//
+// Objects can use different models; each object's tets are one contiguous segment with
+// one material. Fully kinematic objects are skipped (they never deform).
+#include <cstdint>
+#include <vector>
+
+#include "softcontact/scene.hpp"
+#include "softcontact/world.hpp"
+
+namespace softcontact {
+
+/// Per owned object, in World::owned_objects order.
+struct ElasticMeasures {
+  std::vector<double> energy;          ///< strain energy sum_T V_T Psi(F_T) [J]
+  std::vector<std::int64_t> inverted;  ///< tets with det F <= 0 (inverted or flat)
+};
+
+/// Highest angular frequency [rad/s] of one tet at rest with its own lumped mass (a quarter
+/// of rho V on each corner): omega_T = sqrt(lambda_max(K_T) / (rho V / 4)), K_T the rest
+/// stiffness of the material's model (Hooke's law for the FEM models, the springs for
+/// mass_spring). X: rest corners (4,3) [m]. Position Verlet and symplectic Euler are
+/// stable for dt <= 2 / max_T omega_T (Irons' element eigenvalue theorem; docs/models.md).
+double tet_max_frequency(const double X[12], const Material& m);
+
+/// Which stiffness K = -df/dx an element reports.
+enum class StiffnessKind {
+  implicit,  ///< what implicit Euler solves with: linear exact, corotational warped R K0 R^T (SPD)
+  exact,     ///< the exact tangent of every model (may be indefinite)
+};
+
+class ElasticForces {
+public:
+  /// One object's tets [begin, end) (local tet indices) and its material.
+  struct Segment {
+    std::size_t begin = 0, end = 0;
+    int object = 0;          ///< scene object index
+    int owned = 0;           ///< position in World::owned_objects
+    ModelKind model = ModelKind::corotational;
+    double lambda = 0, mu = 0, young = 0;  ///< Lame parameters and E [Pa]
+    double alpha = 0, beta = 0;            ///< Rayleigh damping: mass [1/s], stiffness [s]
+    bool active = true;                    ///< false for kinematic objects (skipped)
+    std::size_t padded_begin = 0;          ///< first tet's position in the chunked force buffer
+  };
+
+  /// Precomputes the rest state from `world` as built by build_world (World::x holds the
+  /// rest positions): Dm^-1 and volume per tet, inverse spring rest lengths, the vertex -> (tet,
+  /// corner) incidence, the segments.
+  ElasticForces(const Scene& scene, const World& world);
+
+  /// f (n_local,3) [N] += internal forces -dU/dx at World::x. With `damping`, also the
+  /// Rayleigh damping at World::v: -alpha m v on movable vertices and the models'
+  /// stiffness-proportional damping -beta K v (docs/models.md). Implicit Euler passes
+  /// false: it treats damping inside its linear system.
+  void add_forces(const World& w, std::vector<double>& f, bool damping) {
+    compute_tet_forces(w, damping);
+    gather_forces(w, f, damping);
+  }
+
+  /// The two phases of add_forces, separately (benchmarks): the per-tet kernels into the
+  /// internal buffer, then the per-vertex gather (and the -alpha m v term) into f.
+  void compute_tet_forces(const World& w, bool damping);
+  void gather_forces(const World& w, std::vector<double>& f, bool damping) const;
+
+  /// Strain energy and inverted-tet count per owned object at World::x (summed in tet
+  /// order, so deterministic).
+  void measure(const World& w, ElasticMeasures& out) const;
+
+  /// Stiffness K = -df/dx (12,12) of local tet t at positions x (n_local,3), row 3a+i,
+  /// column 3b+k for corners a, b and axes i, k [N/m]. StiffnessKind::implicit is only
+  /// defined for the linear and corotational models (the others give their exact
+  /// tangent).
+  void tet_stiffness(std::size_t t, const double* x, StiffnessKind kind, double K[144]) const;
+
+  /// Corner forces (4,3) [N] of local tet t at positions x, without damping: the same
+  /// kernel as add_forces, one tet at a time (for tests).
+  void tet_forces(std::size_t t, const double* x, double f[12]) const;
+
+  const std::vector<Segment>& segments() const { return segments_; }
+  /// Segment of each local tet.
+  std::int32_t segment_of(std::size_t t) const { return tet_segment_[t]; }
+  /// Rest volume of local tet t [m^3].
+  double rest_volume(std::size_t t) const { return volume_[t]; }
+  /// Vertex -> offsets into the per-tet force buffer of its (tet, corner) entries, sorted
+  /// by tet global id.
+  const std::vector<std::int64_t>& incidence_offsets() const { return inc_offset_; }
+  const std::vector<std::int32_t>& incidence_slots() const { return inc_slot_; }
+
+private:
+  std::vector<Segment> segments_;
+  std::vector<std::int32_t> tet_segment_;  ///< (m_local)
+  // Rest data, structure of arrays (one array per component) so that the per-tet
+  // kernels load consecutive tets with vector loads.
+  std::vector<index_t> corner_[4];        ///< (4)(m_local) local vertex index of each corner
+  std::vector<double> dm_inv_[9];         ///< (9)(m_local) Dm^-1, row-major entries [1/m]
+  std::vector<double> volume_;            ///< (m_local) rest volume [m^3]
+  std::vector<double> inv_rest_length_[6];  ///< (6)(m_local) 1 / spring rest length [1/m], mass_spring tets only
+  struct Block {
+    std::size_t begin;
+    std::int32_t count, segment;
+  };
+  std::vector<Block> blocks_;             ///< active tets in blocks of at most kBlock, one segment each
+  std::vector<double> vertex_alpha_;      ///< (n_local) Rayleigh alpha of the vertex's material [1/s]
+  std::vector<std::int64_t> inc_offset_;  ///< (n_owned + 1) CSR offsets into inc_slot_
+  std::vector<std::int32_t> inc_slot_;    ///< (4 m_local) buffer offset of (tet, corner); components at +0, +kLanes, +2 kLanes
+  /// Per-tet corner forces of the last evaluation [N], in chunks of kLanes tets (see
+  /// tet_kernels.hpp): (chunks, 12, kLanes), each segment starting on a new chunk.
+  std::vector<double> tet_force_;
+};
+
+}  // namespace softcontact

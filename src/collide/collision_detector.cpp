@@ -1,0 +1,480 @@
+// CollisionDetector: the orchestration of steps 3 and 4 of Algorithm 1 (method.md).
+// The algorithms live in their own files; docs/collision.md describes the whole.
+//
+// detect(), per step:
+//   0. positions: non-finite vertices are set aside (counted); the largest step |x~ - x^t|
+//   1. object boxes at x~ and the pairs of objects whose boxes overlap (sweep and prune
+//      along x): each object's "partners"
+//   2. query points: surface vertices inside a partner's box (with self-collisions on:
+//      every surface vertex of every object); per object the box of the foreign query
+//      points inside it, and per vertex its outcode against that box
+//   3. spatial hash of the points (spatial_hash.hpp)
+//   4. narrow phase per tet whose box can meet a foreign point: the points of the cells
+//      its box overlaps, from other objects (for self-collisions also from its own
+//      object, if not incident to it), tested with point_in_tet.hpp
+//   5. inside pairs (point i of A, object B, lowest tet of B holding i), grouped by (A, B)
+//   6. per penetrated B: smoothed normals and the surface hierarchy at x~; per group:
+//      penetration vectors, T_i and weights (penetration_depth.hpp)
+//   7. records sorted by (point_gid, triangle_gid)
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "collision_topology.hpp"
+#include "parallel.hpp"
+#include "penetration_depth.hpp"
+#include "point_in_tet.hpp"
+#include "smoothed_normals.hpp"
+#include "spatial_hash.hpp"
+#include "surface_bvh.hpp"
+#include "softcontact/collision.hpp"
+
+namespace softcontact {
+
+using namespace collide;
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+struct Hit {
+  index_t point;
+  index_t tet;
+  bool operator<(const Hit& o) const { return point != o.point ? point < o.point : tet < o.tet; }
+};
+
+struct PairKey {
+  std::int32_t a, b;  // slots of the point's object and of the penetrated object
+  InsidePoint p;
+  bool operator<(const PairKey& o) const {
+    if (a != o.a) return a < o.a;
+    if (b != o.b) return b < o.b;
+    return p.point < o.p.point;
+  }
+};
+
+// Per-thread tallies, combined in thread order (integer sums and maxima: exact, so the
+// totals do not depend on the thread count).
+struct ThreadCounts {
+  std::int64_t degenerate = 0, nonfinite = 0, large = 0;
+  double max_step = 0;
+};
+
+// One tet against the points of grid cells, in two passes: a tight, branch-free box
+// test over the cells' points that only collects the passing points (most fail it, at
+// random, and the own object's points are folded into the same test: a tet's box always
+// holds some of them), then the exact test on the few collected.
+struct TetCandidate {
+  const World& w;
+  const CollisionTopology& topo;
+  bool self;
+  index_t tet;
+  std::int32_t slot;
+  Box box;
+  std::vector<std::uint32_t>& passed;  // sorted-point indices, reused per thread
+
+  std::size_t count = 0;                // points collected so far (passed[0 .. count))
+
+  // Branch-free compaction: every point is written, the count advances for those that
+  // pass.
+  [[gnu::always_inline]] inline void collect(const SpatialHash& grid, std::size_t k0, std::size_t k1) {
+    if (passed.size() < count + (k1 - k0)) passed.resize(2 * (count + (k1 - k0)));
+    std::uint32_t* outp = passed.data();
+    const double* px = grid.sorted_x();
+    const std::int32_t* label = grid.sorted_label();
+    const double lx = box.lo[0], ly = box.lo[1], lz = box.lo[2], hx = box.hi[0], hy = box.hi[1], hz = box.hi[2];
+    std::size_t n = count;
+    for (std::size_t k = k0; k < k1; ++k) {
+      const double* q = px + 3 * k;
+      const bool in = (q[0] >= lx) & (q[0] <= hx) & (q[1] >= ly) & (q[1] <= hy) & (q[2] >= lz) & (q[2] <= hz) &
+                      (self | (label[k] != slot));
+      outp[n] = static_cast<std::uint32_t>(k);
+      n += in;
+    }
+    count = n;
+  }
+
+  /// Exact tests of the collected points; false for a degenerate tet.
+  bool finish(const SpatialHash& grid, std::vector<Hit>& out) {
+    if (count == 0) return true;
+    const index_t* tv = &w.tets[4 * static_cast<std::size_t>(tet)];
+    TetFaces faces;
+    if (!faces.setup(w.x.data(), tv, topo.boundary_mask[static_cast<std::size_t>(tet)])) return false;
+    const double* px = grid.sorted_x();
+    for (std::size_t q = 0; q < count; ++q) {
+      const std::uint32_t k = passed[q];
+      const index_t v = grid.point(k);
+      if (topo.vertex_slot[static_cast<std::size_t>(v)] == slot && (tv[0] == v || tv[1] == v || tv[2] == v || tv[3] == v))
+        continue;  // own object (self-collisions only): a tet incident to v does not count
+      if (faces.contains({px[3 * k], px[3 * k + 1], px[3 * k + 2]})) out.push_back({v, tet});
+    }
+    return true;
+  }
+};
+
+// Outcode of a vertex with a non-finite position (the six side bits use bits 0..5).
+constexpr std::uint8_t kBadVertex = 0x40;
+
+// Distances below this fraction of the cell size count as zero in the depth weights.
+constexpr double kTinyRelative = 1e-9;
+
+}  // namespace
+
+struct CollisionDetector::Impl {
+  CollisionSettings settings;
+  CollisionTopology topo;
+  std::vector<SurfaceBvh> bvh;  // per slot
+  SpatialHash grid;
+  double thinnest = 0;          // smallest object thickness [m]
+
+  // Step buffers, kept between steps so that a step allocates nothing once they have grown.
+  std::vector<std::uint8_t> bad_vertex;
+  std::vector<ThreadCounts> counts;
+  std::vector<Box> object_box;
+  std::vector<std::vector<std::int32_t>> partners;
+  std::vector<std::int32_t> sweep;
+  std::vector<std::uint8_t> object_active;
+  std::vector<std::vector<index_t>> object_points;  // query points per object
+  std::vector<index_t> query_points;
+  std::vector<Box> point_box;                       // per object: box of its query points
+  std::vector<Box> foreign_box;                     // per object
+  std::vector<std::uint8_t> outcode;                // per vertex, against its object's foreign box
+  std::vector<std::vector<Hit>> hit_buf;
+  std::vector<std::vector<std::uint32_t>> passed_buf;
+  std::vector<Hit> hits;
+  std::vector<PairKey> pairs;
+  std::vector<std::size_t> group_begin;
+  std::vector<InsidePoint> group_points;    // pairs[q].p: each group's points as one ascending array
+  std::vector<std::int32_t> penetrated;
+  std::vector<double> normals;
+  std::vector<std::int64_t> normal_degenerate;
+  std::vector<DepthCounters> group_counts;
+  std::vector<DepthScratch> scratch;
+
+  Impl(const World& w, const CollisionSettings& s);
+  void detect(const World& w, const double* x_prev, std::vector<Collision>& out, CollisionStats& st);
+
+private:
+  void scan_positions(const World& w, const double* x_prev, CollisionStats& st);
+  void find_partners(const double* x);
+  void select_points(const World& w);
+  void narrow_phase(const World& w, CollisionStats& st);
+  void group_pairs(CollisionStats& st);
+  void depth(const World& w, std::vector<Collision>& out, CollisionStats& st);
+};
+
+CollisionDetector::Impl::Impl(const World& w, const CollisionSettings& s)
+    : settings(s), topo(build_collision_topology(w)) {
+  double h = settings.cell_size > 0 ? settings.cell_size : topo.mean_edge_length;
+  if (!(h > 0) || !std::isfinite(h)) h = 1;  // no edges at all: any size works
+  grid.set_cell_size(h);
+  bvh.resize(topo.objects.size());
+  for (std::size_t k = 0; k < topo.objects.size(); ++k) {
+    bvh[k].build(w.x.data(), w.triangles.data(), topo.objects[k].triangles);
+    const double t = topo.objects[k].thickness;
+    if (t > 0 && (thinnest == 0 || t < thinnest)) thinnest = t;
+  }
+}
+
+// Step 0: non-finite positions and the largest step.
+void CollisionDetector::Impl::scan_positions(const World& w, const double* x_prev, CollisionStats& st) {
+  const std::size_t n = w.n_local();
+  const double* x = w.x.data();
+  bad_vertex.resize(n);
+  counts.assign(static_cast<std::size_t>(max_threads()), ThreadCounts{});
+  parallel_for(n, [&](std::size_t v, int t) {
+    ThreadCounts& c = counts[static_cast<std::size_t>(t)];
+    const V3 p = load(x, static_cast<index_t>(v));
+    bad_vertex[v] = finite(p) ? 0 : 1;
+    if (bad_vertex[v]) {
+      ++c.nonfinite;
+      return;
+    }
+    if (x_prev) {
+      const V3 q = load(x_prev, static_cast<index_t>(v));
+      const double step = std::sqrt(norm2(p - q));
+      if (step > c.max_step) c.max_step = step;  // false for a non-finite x^t: ignored
+    }
+  });
+  double max_step = 0;
+  for (const ThreadCounts& c : counts) {
+    st.degenerate_skipped += c.nonfinite;
+    max_step = std::max(max_step, c.max_step);
+  }
+  st.max_step_over_thickness = thinnest > 0 ? max_step / thinnest : 0;
+}
+
+// Step 1: object boxes, and the pairs whose boxes overlap: sort by the boxes' lower x,
+// then each object meets only the objects that start before it ends.
+void CollisionDetector::Impl::find_partners(const double* x) {
+  const std::size_t no = topo.objects.size();
+  object_box.resize(no);
+  partners.resize(no);
+  parallel_for(no, [&](std::size_t k, int) {
+    Box b;
+    b.reset();
+    for (index_t v : topo.objects[k].vertices)
+      if (!bad_vertex[static_cast<std::size_t>(v)]) b.add(load(x, v));
+    object_box[k] = b;
+    partners[k].clear();
+  });
+  sweep.clear();
+  for (std::size_t k = 0; k < no; ++k)
+    if (!object_box[k].empty() && !topo.objects[k].triangles.empty()) sweep.push_back(static_cast<std::int32_t>(k));
+  std::sort(sweep.begin(), sweep.end(), [&](std::int32_t a, std::int32_t b) {
+    const double la = object_box[static_cast<std::size_t>(a)].lo[0], lb = object_box[static_cast<std::size_t>(b)].lo[0];
+    return la != lb ? la < lb : a < b;
+  });
+  for (std::size_t i = 0; i < sweep.size(); ++i) {
+    const auto a = static_cast<std::size_t>(sweep[i]);
+    for (std::size_t j = i + 1; j < sweep.size(); ++j) {
+      const auto b = static_cast<std::size_t>(sweep[j]);
+      if (object_box[b].lo[0] > object_box[a].hi[0]) break;
+      if (!object_box[a].overlaps(object_box[b])) continue;
+      partners[a].push_back(static_cast<std::int32_t>(b));
+      partners[b].push_back(static_cast<std::int32_t>(a));
+    }
+  }
+  for (auto& p : partners) std::sort(p.begin(), p.end());
+}
+
+// Step 2: the query points, surface vertices inside the box of a partner object (all
+// surface vertices of objects with partners, with self-collisions on), and per object B
+// a box holding the other objects' query points inside B's box: a tet of B whose box
+// misses it cannot hold any of them.
+void CollisionDetector::Impl::select_points(const World& w) {
+  const double* x = w.x.data();
+  const bool self = settings.self_collisions;
+  const std::size_t no = topo.objects.size();
+  object_active.assign(no, 0);
+  for (std::size_t k = 0; k < no; ++k)
+    object_active[k] = (self || !partners[k].empty()) && !object_box[k].empty() ? 1 : 0;
+  object_points.resize(no);
+  point_box.resize(no);
+  parallel_for(no, [&](std::size_t k, int) {
+    object_points[k].clear();
+    point_box[k].reset();
+    if (!object_active[k]) return;
+    for (index_t v : topo.objects[k].surface_vertices) {
+      if (bad_vertex[static_cast<std::size_t>(v)]) continue;
+      const V3 p = load(x, v);
+      bool take = self;
+      for (std::size_t q = 0; !take && q < partners[k].size(); ++q)
+        take = object_box[static_cast<std::size_t>(partners[k][q])].contains(p);
+      if (!take) continue;
+      object_points[k].push_back(v);
+      point_box[k].add(p);
+    }
+  });
+  query_points.clear();
+  for (const auto& pts : object_points) query_points.insert(query_points.end(), pts.begin(), pts.end());
+  std::sort(query_points.begin(), query_points.end());  // ascending whatever the World's object order
+
+  foreign_box.resize(no);
+  outcode.resize(w.n_local());
+  parallel_for(no, [&](std::size_t b, int) {
+    // The union over partners A of (box of A's query points) cut to B's box: it holds
+    // every foreign point that can be inside B, at O(partners) cost.
+    Box fb;
+    fb.reset();
+    if (self) {
+      fb = object_box[b];  // its own points may be inside it too
+    } else if (object_active[b]) {
+      for (std::int32_t a : partners[b]) {
+        const Box& pa = point_box[static_cast<std::size_t>(a)];
+        if (pa.empty() || !pa.overlaps(object_box[b])) continue;
+        Box cut;
+        for (int d = 0; d < 3; ++d) {
+          cut.lo[d] = std::max(pa.lo[d], object_box[b].lo[d]);
+          cut.hi[d] = std::min(pa.hi[d], object_box[b].hi[d]);
+        }
+        fb.add(cut);
+      }
+    }
+    foreign_box[b] = fb;
+    // Outcodes of the object's vertices against that box (bit per side, as in
+    // Cohen-Sutherland clipping): a tet's box misses the box exactly when some bit is set
+    // in all four of its vertices' codes, which spares computing the boxes of tets far
+    // from any foreign point.
+    for (index_t v : topo.objects[b].vertices) {
+      const auto i = static_cast<std::size_t>(v);
+      if (bad_vertex[i]) {
+        outcode[i] = kBadVertex;
+        continue;
+      }
+      const V3 p = load(x, v);
+      std::uint8_t c = 0;
+      for (int d = 0; d < 3; ++d) {
+        c |= static_cast<std::uint8_t>((p[d] < fb.lo[d] ? 1u : 0u) << (2 * d));
+        c |= static_cast<std::uint8_t>((p[d] > fb.hi[d] ? 1u : 0u) << (2 * d + 1));
+      }
+      outcode[i] = c;
+    }
+  });
+}
+
+// Steps 3 and 4: the points go into the grid; every tet of an active object whose box
+// can meet a foreign point (outcodes) asks the grid for the points of the cells its box
+// overlaps, keeps those inside its box and of another object (TetCandidate::collect),
+// and tests them exactly (TetCandidate::finish). Tets are independent: each thread
+// appends to its own hit buffer, and the hits are sorted afterwards.
+void CollisionDetector::Impl::narrow_phase(const World& w, CollisionStats& st) {
+  const double* x = w.x.data();
+  grid.insert_points(x, query_points, topo.vertex_slot.data());
+  reset_buffers(hit_buf);
+  passed_buf.resize(static_cast<std::size_t>(max_threads()));
+  counts.assign(static_cast<std::size_t>(max_threads()), ThreadCounts{});
+  const std::size_t m = w.tets.size() / 4;
+  parallel_for(m, [&](std::size_t e, int t) {
+    const std::int32_t slot = topo.tet_slot[e];
+    if (!object_active[static_cast<std::size_t>(slot)]) return;
+    const index_t* tv = &w.tets[4 * e];
+    const std::uint8_t c0 = outcode[static_cast<std::size_t>(tv[0])], c1 = outcode[static_cast<std::size_t>(tv[1])],
+                       c2 = outcode[static_cast<std::size_t>(tv[2])], c3 = outcode[static_cast<std::size_t>(tv[3])];
+    if (((c0 | c1 | c2 | c3) & kBadVertex) || (c0 & c1 & c2 & c3)) return;  // non-finite, or far from foreign points
+    Box box;
+    box.reset();
+    for (int c = 0; c < 4; ++c) box.add(load(x, tv[c]));
+    const CellRange r = grid.range_of(box);
+    if (r.empty()) return;
+    auto& passed = passed_buf[static_cast<std::size_t>(t)];
+    TetCandidate cand{w, topo, settings.self_collisions, static_cast<index_t>(e), slot, box, passed};
+    if (r.count() > static_cast<double>(grid.num_points())) {
+      // A box spanning more cells than there are points (a tet stretched far by a
+      // blown-up simulation): cheaper to test every point than to visit the cells.
+      ++counts[static_cast<std::size_t>(t)].large;
+      cand.collect(grid, 0, grid.num_points());
+    } else {
+      grid.for_each_run(r, [&](std::size_t k0, std::size_t k1) { cand.collect(grid, k0, k1); });
+    }
+    if (!cand.finish(grid, hit_buf[static_cast<std::size_t>(t)])) ++counts[static_cast<std::size_t>(t)].degenerate;
+  });
+  for (const ThreadCounts& c : counts) {
+    st.degenerate_skipped += c.degenerate;
+    st.large_tets += c.large;
+  }
+  hits.clear();
+  concatenate(hit_buf, hits);
+  std::sort(hits.begin(), hits.end());  // (point, tet): independent of the schedule
+}
+
+// Step 5: (point, other object) pairs with the lowest tet holding the point; groups of
+// equal (A, B).
+void CollisionDetector::Impl::group_pairs(CollisionStats& st) {
+  pairs.clear();
+  index_t last_self = -1;
+  for (const Hit& h : hits) {
+    const std::int32_t a = topo.vertex_slot[static_cast<std::size_t>(h.point)];
+    const std::int32_t b = topo.tet_slot[static_cast<std::size_t>(h.tet)];
+    if (a == b) {
+      if (h.point != last_self) ++st.self_collisions;
+      last_self = h.point;
+      continue;
+    }
+    // Hits of one point are sorted by tet: the first of each object is its lowest tet.
+    bool seen = false;
+    for (std::size_t q = pairs.size(); q-- > 0 && pairs[q].p.point == h.point;)
+      if (pairs[q].b == b) seen = true;
+    if (!seen) pairs.push_back({a, b, {h.point, h.tet}});
+  }
+  // Distinct points among the pairs (still sorted by point here).
+  for (std::size_t q = 0; q < pairs.size(); ++q)
+    if (q == 0 || pairs[q].p.point != pairs[q - 1].p.point) ++st.colliding_points;
+  std::sort(pairs.begin(), pairs.end());
+  group_points.resize(pairs.size());
+  for (std::size_t q = 0; q < pairs.size(); ++q) group_points[q] = pairs[q].p;
+  group_begin.clear();
+  for (std::size_t q = 0; q < pairs.size(); ++q)
+    if (q == 0 || pairs[q].a != pairs[q - 1].a || pairs[q].b != pairs[q - 1].b) group_begin.push_back(q);
+  group_begin.push_back(pairs.size());
+}
+
+// Step 6 and 7.
+void CollisionDetector::Impl::depth(const World& w, std::vector<Collision>& out, CollisionStats& st) {
+  const double* x = w.x.data();
+  const std::size_t ngroups = group_begin.size() - 1;
+  penetrated.clear();
+  for (std::size_t g = 0; g < ngroups; ++g) penetrated.push_back(pairs[group_begin[g]].b);
+  std::sort(penetrated.begin(), penetrated.end());
+  penetrated.erase(std::unique(penetrated.begin(), penetrated.end()), penetrated.end());
+
+  // Normals and hierarchies of the penetrated objects at x~ (each object writes its own).
+  normals.resize(3 * w.n_local());
+  normal_degenerate.assign(penetrated.size(), 0);
+  parallel_for_dynamic(penetrated.size(), [&](std::size_t k, int) {
+    const auto b = static_cast<std::size_t>(penetrated[k]);
+    smoothed_vertex_normals(x, w.triangles.data(), topo, topo.objects[b], normals.data(), normal_degenerate[k]);
+    bvh[b].refit(x, w.triangles.data());
+  });
+  for (std::int64_t d : normal_degenerate) st.degenerate_skipped += d;
+
+  DepthInput in;
+  in.world = &w;
+  in.x = x;
+  in.topo = &topo;
+  in.normals = normals.data();
+  in.bvh = bvh.data();
+  in.object_box = object_box.data();
+  in.tiny = kTinyRelative * grid.cell_size();
+
+  out.assign(pairs.size(), Collision{});
+  group_counts.assign(ngroups, DepthCounters{});
+  scratch.resize(static_cast<std::size_t>(max_threads()));
+  // Groups have very different sizes: dynamic schedule; each writes its own records.
+  parallel_for_dynamic(ngroups, [&](std::size_t g, int t) {
+    const std::size_t q0 = group_begin[g], q1 = group_begin[g + 1];
+    penetration_depth(in, pairs[q0].b, group_points.data() + q0, q1 - q0, out.data() + q0, group_counts[g],
+                      scratch[static_cast<std::size_t>(t)]);
+  });
+  for (const DepthCounters& c : group_counts) {
+    st.border_points += c.border_points;
+    st.deep_fallbacks += c.deep_fallbacks;
+    st.degenerate_skipped += c.degenerate;
+    st.surface_searches += c.surface_searches;
+  }
+  // Last line of defence: nothing non-finite leaves (every path above is finite for
+  // finite input; this catches overflow from absurd but finite coordinates).
+  for (Collision& c : out) {
+    bool ok = true;
+    for (int d = 0; d < 3; ++d) ok = ok && std::isfinite(c.depth[d]) && std::isfinite(c.weight[d]);
+    if (!ok) {
+      c.depth = {0, 0, 0};
+      c.weight = {1.0 / 3, 1.0 / 3, 1.0 / 3};
+      ++st.degenerate_skipped;
+    }
+  }
+  std::sort(out.begin(), out.end(), [](const Collision& a, const Collision& b) {
+    return a.point_gid != b.point_gid ? a.point_gid < b.point_gid : a.triangle_gid < b.triangle_gid;
+  });
+  st.collisions = static_cast<std::int64_t>(out.size());
+}
+
+void CollisionDetector::Impl::detect(const World& w, const double* x_prev, std::vector<Collision>& out,
+                                     CollisionStats& st) {
+  st = CollisionStats{};
+  const auto t0 = std::chrono::steady_clock::now();
+  scan_positions(w, x_prev, st);
+  find_partners(w.x.data());
+  select_points(w);
+  narrow_phase(w, st);
+  group_pairs(st);
+  st.detection_seconds = seconds_since(t0);
+  const auto t1 = std::chrono::steady_clock::now();
+  depth(w, out, st);
+  st.depth_seconds = seconds_since(t1);
+}
+
+CollisionDetector::CollisionDetector(const World& world, const CollisionSettings& settings)
+    : impl_(std::make_unique<Impl>(world, settings)) {}
+CollisionDetector::~CollisionDetector() = default;
+CollisionDetector::CollisionDetector(CollisionDetector&&) noexcept = default;
+CollisionDetector& CollisionDetector::operator=(CollisionDetector&&) noexcept = default;
+
+void CollisionDetector::detect(const World& world, const double* x_prev_step, std::vector<Collision>& out,
+                               CollisionStats& stats) {
+  impl_->detect(world, x_prev_step, out, stats);
+}
+
+}  // namespace softcontact

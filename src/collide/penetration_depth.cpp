@@ -1,0 +1,259 @@
+#include "penetration_depth.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "smoothed_normals.hpp"
+#include "tet_walk.hpp"
+#include "triangle_queries.hpp"
+
+namespace softcontact::collide {
+
+namespace {
+
+bool is_zero(const V3& a) { return a[0] == 0 && a[1] == 0 && a[2] == 0; }
+
+// Position of vertex v among the (ascending) points, or -1.
+std::ptrdiff_t position_of(const InsidePoint* pts, std::size_t n, index_t v) {
+  const InsidePoint* it = std::lower_bound(pts, pts + n, v, [](const InsidePoint& p, index_t u) { return p.point < u; });
+  return it != pts + n && it->point == v ? it - pts : -1;
+}
+
+// Where the border edge p -> q leaves B: the tet walk, or (walk failed) the first
+// crossing with B's surface, ties to the lower triangle.
+WalkResult border_crossing(const DepthInput& in, const SurfaceBvh& bvh, const TetPlanes& start, const V3& p,
+                           const V3& q, DepthCounters& c, DepthScratch& s) {
+  const World& w = *in.world;
+  WalkResult r = walk_to_surface(in.x, w.tets.data(), in.topo->face_neighbour.data(), w.triangles.data(), start, p, q,
+                                 in.max_walk);
+  if (r.status != WalkResult::failed) return r;
+  ++c.surface_searches;
+  s.hits.clear();
+  bvh.segment_hits(in.x, w.triangles.data(), p, q, s.hits, c.degenerate);
+  for (const SurfaceBvh::Hit& h : s.hits)
+    if (r.status != WalkResult::exited || h.t < r.t || (h.t == r.t && h.triangle < r.triangle)) {
+      r.status = WalkResult::exited;
+      r.t = h.t;
+      r.triangle = h.triangle;
+      r.bary = h.bary;
+    }
+  return r;
+}
+
+// Candidate crossing of the ray at distance s on triangle t: nearer to the target depth
+// D wins; ties to the smaller s, then the lower triangle.
+struct RayPick {
+  double s = 0;
+  index_t triangle = -1;
+  void offer(double s_new, index_t t_new, double D) {
+    const double e = std::abs(s_new - D), e_old = std::abs(s - D);
+    if (triangle < 0 || e < e_old || (e == e_old && (s_new < s || (s_new == s && t_new < triangle)))) {
+      s = s_new;
+      triangle = t_new;
+    }
+  }
+};
+
+// T_i: the surface triangle crossed by the ray x~_i + s r_i, nearest to s = D_i.
+index_t ray_triangle(const DepthInput& in, std::int32_t b, index_t tet, const V3& xi, const V3& r, double D,
+                     DepthCounters& c, DepthScratch& s) {
+  const World& w = *in.world;
+  const SurfaceBvh& bvh = in.bvh[b];
+  const Box& box = in.object_box[b];
+  // Far enough to be outside B's box: the walk must leave B before the end.
+  const double reach = D + 2 * std::sqrt(norm2(box.hi - box.lo)) + in.tiny;
+  const WalkResult wr = walk_to_surface(in.x, w.tets.data(), in.topo->face_neighbour.data(), w.triangles.data(), tet, xi,
+                                        xi + reach * r, in.max_walk);
+  RayPick pick;
+  if (wr.status == WalkResult::exited) {
+    const double s1 = wr.t * reach;
+    pick.offer(s1, wr.triangle, D);
+    if (D > s1 + in.tiny) {
+      // A crossing after the first exit can only be nearer to D if it lies before 2D - s1.
+      const double len = 2 * D - s1;
+      s.hits.clear();
+      bvh.segment_hits(in.x, w.triangles.data(), xi, xi + len * r, s.hits, c.degenerate);
+      for (const SurfaceBvh::Hit& h : s.hits)
+        if (h.t * len > s1) pick.offer(h.t * len, h.triangle, D);
+    }
+  } else {
+    ++c.surface_searches;
+    s.hits.clear();
+    bvh.segment_hits(in.x, w.triangles.data(), xi, xi + reach * r, s.hits, c.degenerate);
+    for (const SurfaceBvh::Hit& h : s.hits) pick.offer(h.t * reach, h.triangle, D);
+  }
+  if (pick.triangle >= 0) return pick.triangle;
+  // No crossing found at all (a tangled B): the triangle nearest to x~_i + d_i.
+  ++c.surface_searches;
+  return bvh.nearest(in.x, w.triangles.data(), xi + D * r, c.degenerate).triangle;
+}
+
+}  // namespace
+
+void penetration_depth(const DepthInput& in, std::int32_t b, const InsidePoint* pts, std::size_t count, Collision* out,
+                       DepthCounters& c, DepthScratch& s) {
+  const World& w = *in.world;
+  const CollisionTopology& topo = *in.topo;
+  const double* x = in.x;
+  const index_t* tri = w.triangles.data();
+  const SurfaceBvh& bvh = in.bvh[b];
+  const double tiny2 = in.tiny * in.tiny;
+
+  // Neighbours of each point over A's mesh edges, split into those inside B (by
+  // position) and those not (by vertex), both ascending.
+  s.in_begin.assign(1, 0);
+  s.out_begin.assign(1, 0);
+  s.in_nb.clear();
+  s.out_nb.clear();
+  for (std::size_t k = 0; k < count; ++k) {
+    const auto v = static_cast<std::size_t>(pts[k].point);
+    for (std::size_t e = topo.edge_begin[v]; e < topo.edge_begin[v + 1]; ++e) {
+      const index_t u = topo.edge_to[e];
+      const std::ptrdiff_t p = position_of(pts, count, u);
+      if (p >= 0)
+        s.in_nb.push_back(static_cast<index_t>(p));
+      else
+        s.out_nb.push_back(u);
+    }
+    s.in_begin.push_back(s.in_nb.size());
+    s.out_begin.push_back(s.out_nb.size());
+  }
+  s.layer.assign(count, -1);
+  s.depth.assign(count, 0);
+  s.dir.assign(count, V3{0, 0, 0});
+  s.frontier.clear();
+
+  // Border points: weighted crossings of their border edges.
+  for (std::size_t k = 0; k < count; ++k) {
+    const V3 xi = load(x, pts[k].point);
+    double sw = 0, sd = 0, best_w = -1;
+    V3 sn{0, 0, 0}, best_n{0, 0, 0};
+    if (s.out_begin[k] == s.out_begin[k + 1]) continue;
+    const TetPlanes start = prepare_walk(x, w.tets.data(), pts[k].tet, xi);  // shared by the point's edges
+    for (std::size_t e = s.out_begin[k]; e < s.out_begin[k + 1]; ++e) {
+      const V3 xk = load(x, s.out_nb[e]);
+      if (norm2(xk - xi) <= tiny2) {  // zero-length edge: no direction to search along
+        ++c.degenerate;
+        continue;
+      }
+      const WalkResult wr = border_crossing(in, bvh, start, xi, xk, c, s);
+      if (wr.status != WalkResult::exited) continue;  // k is inside B as well: no border edge
+      const V3 n = interpolated_normal(x, tri, in.normals, wr.triangle, wr.bary);
+      if (is_zero(n)) {
+        ++c.degenerate;
+        continue;
+      }
+      const V3 diff = wr.t * (xk - xi);  // s_k - x~_i
+      const double wk = 1.0 / std::max(norm2(diff), tiny2);
+      sw += wk;
+      sd += wk * dot(diff, n);
+      sn = sn + wk * n;
+      if (wk > best_w) {
+        best_w = wk;
+        best_n = n;
+      }
+    }
+    if (!(sw > 0)) continue;
+    s.layer[k] = 0;
+    s.depth[k] = sd / sw;
+    const V3 r = normalized(sn);
+    s.dir[k] = is_zero(r) ? best_n : r;  // normals cancelling (a thin part of B): the nearest crossing's
+    s.frontier.push_back(k);
+    ++c.border_points;
+  }
+
+  // Propagation, layer by layer.
+  for (int L = 0; !s.frontier.empty(); ++L) {
+    s.next.clear();
+    for (std::size_t k : s.frontier)
+      for (std::size_t e = s.in_begin[k]; e < s.in_begin[k + 1]; ++e)
+        if (s.layer[static_cast<std::size_t>(s.in_nb[e])] < 0) s.next.push_back(static_cast<std::size_t>(s.in_nb[e]));
+    std::sort(s.next.begin(), s.next.end());
+    s.next.erase(std::unique(s.next.begin(), s.next.end()), s.next.end());
+    for (std::size_t k : s.next) {
+      const V3 xi = load(x, pts[k].point);
+      double sm = 0, sd = 0, best_m = -1;
+      V3 sr{0, 0, 0}, best_r{0, 0, 0};
+      double best_d = 0;
+      for (std::size_t e = s.in_begin[k]; e < s.in_begin[k + 1]; ++e) {
+        const auto j = static_cast<std::size_t>(s.in_nb[e]);
+        if (s.layer[j] < 0) continue;  // unprocessed, or in the layer being computed (not marked yet)
+        const V3 dx = load(x, pts[j].point) - xi;
+        double l2 = norm2(dx);
+        if (l2 <= tiny2) {
+          ++c.degenerate;
+          l2 = tiny2;
+        }
+        const double mu = 1.0 / l2;
+        sm += mu;
+        sd += mu * (dot(dx, s.dir[j]) + s.depth[j]);
+        sr = sr + mu * s.dir[j];
+        if (mu > best_m) {
+          best_m = mu;
+          best_r = s.dir[j];
+          best_d = dot(dx, s.dir[j]) + s.depth[j];
+        }
+      }
+      s.depth[k] = sm > 0 ? sd / sm : best_d;
+      const V3 r = normalized(sr);
+      s.dir[k] = is_zero(r) ? best_r : r;
+    }
+    for (std::size_t k : s.next) s.layer[k] = L + 1;
+    s.frontier.swap(s.next);
+  }
+
+  // Sets that no border point reached: deep intersections (layer -2 marks them).
+  for (std::size_t k = 0; k < count; ++k) {
+    if (s.layer[k] != -1) continue;
+    ++c.deep_fallbacks;
+    s.next.assign(1, k);
+    s.layer[k] = -2;
+    while (!s.next.empty()) {
+      const std::size_t q = s.next.back();
+      s.next.pop_back();
+      for (std::size_t e = s.in_begin[q]; e < s.in_begin[q + 1]; ++e) {
+        const auto j = static_cast<std::size_t>(s.in_nb[e]);
+        if (s.layer[j] == -1) {
+          s.layer[j] = -2;
+          s.next.push_back(j);
+        }
+      }
+    }
+  }
+
+  // Records.
+  for (std::size_t k = 0; k < count; ++k) {
+    Collision& rec = out[k];
+    const index_t i = pts[k].point;
+    const V3 xi = load(x, i);
+    rec.point = i;
+    rec.point_gid = w.vertex_gid[static_cast<std::size_t>(i)];
+    rec.object = w.vertex_object[static_cast<std::size_t>(i)];
+    rec.other_object = topo.objects[static_cast<std::size_t>(b)].object;
+    index_t t = -1;
+    V3 d{0, 0, 0};
+    if (s.layer[k] == -2) {
+      const SurfaceBvh::Nearest nr = bvh.nearest(x, tri, xi, c.degenerate);
+      t = nr.triangle;
+      d = nr.point - xi;
+      rec.weight = nr.bary;
+      rec.fallback = true;
+    } else {
+      const double D = std::max(s.depth[k], 0.0);
+      d = D * s.dir[k];
+      t = ray_triangle(in, b, pts[k].tet, xi, s.dir[k], D, c, s);
+      const index_t* tv = tri + 3 * static_cast<std::size_t>(t);
+      const V3 a = load(x, tv[0]), bb = load(x, tv[1]), cc = load(x, tv[2]);
+      if (!projected_weights(xi + d, a, bb, cc, rec.weight)) {
+        ++c.degenerate;
+        closest_point_on_triangle(xi + d, a, bb, cc, rec.weight);
+      }
+      rec.fallback = false;
+    }
+    rec.depth = d;
+    for (int q = 0; q < 3; ++q) rec.triangle[q] = tri[3 * static_cast<std::size_t>(t) + q];
+    rec.triangle_gid = w.triangle_gid[static_cast<std::size_t>(t)];
+  }
+}
+
+}  // namespace softcontact::collide

@@ -1,0 +1,45 @@
+#include "smoothed_normals.hpp"
+
+namespace softcontact::collide {
+
+void smoothed_vertex_normals(const double* x, const index_t* tri, const CollisionTopology& topo,
+                             const ObjectInfo& object, double* normals, std::int64_t& degenerate) {
+  std::int64_t bad = 0;
+  for (index_t v : object.surface_vertices) {
+    V3 sum{0, 0, 0};
+    for (std::size_t k = topo.tri_begin[static_cast<std::size_t>(v)]; k < topo.tri_begin[static_cast<std::size_t>(v) + 1];
+         ++k) {
+      const index_t* t = tri + 3 * static_cast<std::size_t>(topo.tri_of[k]);
+      const V3 a = load(x, t[0]);
+      sum = sum + cross(load(x, t[1]) - a, load(x, t[2]) - a);
+    }
+    const V3 n = normalized(sum);
+    if (n[0] == 0 && n[1] == 0 && n[2] == 0) ++bad;
+    for (int d = 0; d < 3; ++d) normals[3 * static_cast<std::size_t>(v) + d] = n[d];
+  }
+  degenerate += bad;
+}
+
+V3 interpolated_normal(const double* x, const index_t* tri, const double* normals, index_t t,
+                       const std::array<double, 3>& bary) {
+  const index_t* v = tri + 3 * static_cast<std::size_t>(t);
+  const V3 a = load(x, v[0]);
+  const V3 face = normalized(cross(load(x, v[1]) - a, load(x, v[2]) - a));
+  // Crease rule: a vertex normal more than kCreaseDegrees away from this triangle's own
+  // normal belongs to a sharp feature (a box's edge or corner averages faces 90 degrees
+  // apart); across the triangle it would tilt every penetration vector towards the
+  // edge, pushing bodies sideways and overestimating depths. Such a corner uses the
+  // face normal instead, so flat faces keep their exact normal up to their rim while
+  // smooth surfaces (neighbouring faces a few tens of degrees apart) stay smooth.
+  V3 n{0, 0, 0};
+  for (int c = 0; c < 3; ++c) {
+    const V3 nv = load(normals, v[c]);
+    const bool sharp = nv[0] * face[0] + nv[1] * face[1] + nv[2] * face[2] < kCreaseCosine;
+    n = n + bary[c] * (sharp ? face : nv);
+  }
+  n = normalized(n);
+  if (n[0] != 0 || n[1] != 0 || n[2] != 0) return n;
+  return face;
+}
+
+}  // namespace softcontact::collide

@@ -1,0 +1,60 @@
+#pragma once
+// Bounding-volume hierarchy over one object's surface triangles, for the searches that
+// the tet walk cannot do (tet_walk.hpp): all crossings of a segment with the surface,
+// and the nearest surface triangle to a point (the deep-intersection fallback).
+//
+// The tree is built once from the rest positions (median split of the triangle
+// centroids along the longest axis, ties by triangle index, up to 4 triangles per leaf,
+// nodes in depth-first order so children follow their parent) and refitted to the
+// current positions before use: O(s) per refit, O(log s) per query on a mesh that has
+// not tangled. Deformation loosens the boxes but never makes a query wrong.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "vec3.hpp"
+
+namespace softcontact::collide {
+
+class SurfaceBvh {
+public:
+  /// `x` (n,3) positions, `tri` (s,3) the World's triangles, `triangles` the rows that
+  /// belong to this object.
+  void build(const double* x, const index_t* tri, const std::vector<index_t>& triangles);
+  /// Boxes at positions x (same triangles as build).
+  void refit(const double* x, const index_t* tri);
+  bool empty() const { return nodes_.empty(); }
+
+  struct Hit {
+    double t;                      ///< segment parameter in [0, 1]
+    index_t triangle;              ///< row of World::triangles
+    std::array<double, 3> bary;    ///< barycentric coordinates of the crossing on it
+  };
+  /// Appends every crossing of the segment p + t (q - p), t in [0, 1], with the surface
+  /// to `hits`, in traversal order (fixed for fixed input). Degenerate triangles met are
+  /// skipped and counted in `degenerate`.
+  void segment_hits(const double* x, const index_t* tri, const V3& p, const V3& q, std::vector<Hit>& hits,
+                    std::int64_t& degenerate) const;
+
+  struct Nearest {
+    index_t triangle = -1;         ///< -1 only for an empty tree
+    V3 point{};                    ///< closest point
+    std::array<double, 3> bary{};  ///< its barycentric coordinates on the triangle
+    double dist2 = 0;              ///< squared distance [m^2]
+  };
+  /// The surface triangle nearest to p (ties: lower triangle index).
+  Nearest nearest(const double* x, const index_t* tri, const V3& p, std::int64_t& degenerate) const;
+
+private:
+  struct Node {
+    Box box;
+    std::int32_t right = -1;  // internal node: left child is this + 1, right child here
+    std::int32_t first = 0;   // leaf: order_[first .. first + count)
+    std::int32_t count = 0;   // > 0 for a leaf
+  };
+  std::int32_t build_node(std::vector<V3>& centroid, std::size_t begin, std::size_t end);
+  std::vector<Node> nodes_;
+  std::vector<index_t> order_;
+};
+
+}  // namespace softcontact::collide

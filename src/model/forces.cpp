@@ -1,0 +1,334 @@
+// Floating-point contraction off for the whole file: the kernels are compiled for several
+// instruction sets (target_clones below), and without fused multiply-adds every variant
+// rounds exactly like the others and like the scalar reference. sqrt never sets errno
+// here (its arguments are squared lengths), which lets it vectorise.
+#pragma GCC optimize("fp-contract=off", "no-math-errno")
+// The lane vectors (simd.hpp) change the calling convention between instruction sets;
+// every function taking them is inlined into one kernel (flatten), so it never matters.
+#pragma GCC diagnostic ignored "-Wpsabi"
+
+#include "softcontact/forces.hpp"
+#include "softcontact/error.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <string>
+
+#include "corotational.hpp"
+#include "linear.hpp"
+#include "mass_spring.hpp"
+#include "neohookean.hpp"
+#include "stvk.hpp"
+#include "tet_kernels.hpp"
+
+namespace softcontact {
+
+using namespace model;
+
+namespace {
+
+/// Tets per work block: small enough to balance threads on small objects, large
+/// enough that the per-block dispatch costs nothing.
+constexpr std::size_t kBlock = 256;
+static_assert(kBlock % (2 * kLanes) == 0, "blocks must start on whole chunks (and chunk pairs)");
+
+/// Below this many vertices the gather runs on one thread: starting a team costs more
+/// than it saves. (Which thread adds what never changes the result.)
+constexpr std::ptrdiff_t kParallelVertices = 4096;
+
+Lame lame_of(const ElasticForces::Segment& s) { return {s.lambda, s.mu}; }
+
+}  // namespace
+
+ElasticForces::ElasticForces(const Scene& scene, const World& w) {
+  const std::size_t m = w.tet_gid.size();
+  const std::size_t n = w.n_local();
+  for (auto& c : corner_) c.resize(m);
+  for (auto& d : dm_inv_) d.resize(m);
+  volume_.resize(m);
+  tet_segment_.resize(m);
+
+  // Segments: runs of tets of one object (objects are stored contiguously).
+  for (std::size_t t = 0; t < m; ++t) {
+    const int obj = w.tet_object[t];
+    if (segments_.empty() || segments_.back().object != obj) {
+      Segment s;
+      s.begin = t;
+      s.object = obj;
+      s.owned = static_cast<int>(std::find(w.owned_objects.begin(), w.owned_objects.end(), obj) - w.owned_objects.begin());
+      const Material& mat = scene.materials[scene.objects[obj].material];
+      s.model = mat.model;
+      s.lambda = mat.lame_lambda();
+      s.mu = mat.lame_mu();
+      s.young = mat.young;
+      s.alpha = mat.damping_mass;
+      s.beta = mat.damping_stiffness;
+      s.active = !scene.objects[obj].kinematic;
+      segments_.push_back(s);
+    }
+    segments_.back().end = t + 1;
+    tet_segment_[t] = static_cast<std::int32_t>(segments_.size() - 1);
+  }
+
+  bool any_springs = false;
+  for (const Segment& s : segments_) any_springs = any_springs || s.model == ModelKind::mass_spring;
+  if (any_springs)
+    for (auto& l : inv_rest_length_) l.assign(m, 0.0);
+
+  for (std::size_t t = 0; t < m; ++t) {
+    const index_t* tet = &w.tets[4 * t];
+    for (int c = 0; c < 4; ++c) corner_[c][t] = tet[c];
+    const double* X[4] = {&w.x[3 * tet[0]], &w.x[3 * tet[1]], &w.x[3 * tet[2]], &w.x[3 * tet[3]]};
+    const Mat3 dm = {X[1][0] - X[0][0], X[2][0] - X[0][0], X[3][0] - X[0][0], X[1][1] - X[0][1], X[2][1] - X[0][1],
+                     X[3][1] - X[0][1], X[1][2] - X[0][2], X[2][2] - X[0][2], X[3][2] - X[0][2]};
+    // Dm^-1 = cof(Dm)^T / det(Dm); meshes are validated, so det(Dm) = 6 V > 0.
+    const Mat3 c = cofactor(dm);
+    const double det_dm = det_from_cofactor(dm, c);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) dm_inv_[3 * i + j][t] = c[3 * j + i] / det_dm;
+    volume_[t] = w.rest_volume[t];
+    if (segments_[tet_segment_[t]].model == ModelKind::mass_spring)
+      for (int e = 0; e < 6; ++e) {
+        const double* a = X[kTetEdges[e][0]];
+        const double* b = X[kTetEdges[e][1]];
+        inv_rest_length_[e][t] = 1 / std::sqrt((b[0] - a[0]) * (b[0] - a[0]) + (b[1] - a[1]) * (b[1] - a[1]) +
+                                               (b[2] - a[2]) * (b[2] - a[2]));
+      }
+  }
+
+  // Per-tet force buffer: each segment starts on a whole chunk of kLanes tets, so that the
+  // kernels store whole vectors (tet_kernels.hpp); slot(t, c) finds corner c of tet t.
+  std::size_t padded = 0;
+  for (Segment& s : segments_) {
+    s.padded_begin = padded;
+    padded += (s.end - s.begin + kLanes - 1) / kLanes * kLanes;
+  }
+  // Offsets into the buffer are 32-bit (half the memory traffic of the gather's index):
+  // enough for 178 million tets on one rank.
+  if (12 * padded > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
+    throw RuntimeFailure("ElasticForces: too many tets on one rank (" + std::to_string(m) + "); use more ranks");
+  tet_force_.assign(12 * padded, 0.0);
+  auto slot = [&](std::size_t t, int c) {
+    const Segment& s = segments_[tet_segment_[t]];
+    const std::size_t q = s.padded_begin + (t - s.begin);
+    return static_cast<std::int32_t>(12 * (q - q % kLanes) + 3 * kLanes * c + q % kLanes);
+  };
+
+  for (std::size_t k = 0; k < segments_.size(); ++k) {
+    const Segment& s = segments_[k];
+    if (!s.active) continue;
+    for (std::size_t b = s.begin; b < s.end; b += kBlock)
+      blocks_.push_back({b, static_cast<std::int32_t>(std::min(kBlock, s.end - b)), static_cast<std::int32_t>(k)});
+  }
+
+  vertex_alpha_.assign(n, 0.0);
+  for (std::size_t i = 0; i < n; ++i)
+    vertex_alpha_[i] = scene.materials[scene.objects[w.vertex_object[i]].material].damping_mass;
+
+  // Incidence: every (tet, corner) slot under its vertex, sorted by tet global id so that
+  // the gather adds a vertex's contributions in an order that does not depend on how
+  // tets are distributed over threads or ranks.
+  const std::size_t no = w.n_owned;
+  inc_offset_.assign(no + 1, 0);
+  for (std::size_t t = 0; t < m; ++t)
+    for (int c = 0; c < 4; ++c)
+      if (static_cast<std::size_t>(w.tets[4 * t + c]) < no) ++inc_offset_[w.tets[4 * t + c] + 1];
+  std::partial_sum(inc_offset_.begin(), inc_offset_.end(), inc_offset_.begin());
+  inc_slot_.resize(inc_offset_.back());
+  std::vector<std::int64_t> fill(inc_offset_.begin(), inc_offset_.end() - 1);
+  for (std::size_t t = 0; t < m; ++t)
+    for (int c = 0; c < 4; ++c) {
+      const std::size_t v = w.tets[4 * t + c];
+      if (v < no) inc_slot_[fill[v]++] = slot(t, c);
+    }
+  // Tets are stored in increasing global id (objects in order, each object's tets in
+  // order), so filling in tet order has already sorted every list.
+  for (std::size_t t = 1; t < m; ++t) SC_ASSERT(w.tet_gid[t - 1] < w.tet_gid[t]);
+}
+
+namespace {
+
+TetView make_view(const std::vector<index_t> (&corner)[4], const std::vector<double> (&dm_inv)[9],
+                  const std::vector<double>& volume, const std::vector<double> (&inv_rest_length)[6]) {
+  TetView v;
+  for (int c = 0; c < 4; ++c) v.corner[c] = corner[c].data();
+  for (int k = 0; k < 9; ++k) v.dm_inv[k] = dm_inv[k].data();
+  v.volume = volume.data();
+  for (int e = 0; e < 6; ++e) v.inv_rest_length[e] = inv_rest_length[e].data();
+  return v;
+}
+
+}  // namespace
+
+namespace {
+
+/// The forces of one block of tets (one segment). Compiled for AVX-512, AVX2 and the
+/// x86-64 baseline; the loader picks the best the processor has.
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"), flatten))
+void block_forces(const TetView& T, std::size_t t0, std::size_t t1, const ElasticForces::Segment& s, bool damping,
+                  const double* x, const double* v, double* out) {
+  const bool damp = damping && s.beta > 0;
+  const Lame l = lame_of(s);
+  switch (s.model) {
+    case ModelKind::linear:
+      if (damp) law_block<LinearLaw, true>(T, t0, t1, LinearLaw{l, s.beta}, x, v, out);
+      else law_block<LinearLaw, false>(T, t0, t1, LinearLaw{l, s.beta}, x, v, out);
+      break;
+    case ModelKind::corotational:
+      if (damp) corotational_block<true>(T, t0, t1, l, s.beta, x, v, out);
+      else corotational_block<false>(T, t0, t1, l, s.beta, x, v, out);
+      break;
+    case ModelKind::stvk:
+      if (damp) law_block<StvkLaw, true>(T, t0, t1, StvkLaw{l, s.beta}, x, v, out);
+      else law_block<StvkLaw, false>(T, t0, t1, StvkLaw{l, s.beta}, x, v, out);
+      break;
+    case ModelKind::neohookean:
+      if (damp) law_block<NeoHookeanLaw, true>(T, t0, t1, NeoHookeanLaw(l, s.beta), x, v, out);
+      else law_block<NeoHookeanLaw, false>(T, t0, t1, NeoHookeanLaw(l, s.beta), x, v, out);
+      break;
+    case ModelKind::mass_spring:
+      if (damp) spring_block<true>(T, t0, t1, s.young, s.beta, x, v, out);
+      else spring_block<false>(T, t0, t1, s.young, s.beta, x, v, out);
+      break;
+  }
+}
+
+}  // namespace
+
+void ElasticForces::compute_tet_forces(const World& w, bool damping) {
+  const TetView T = make_view(corner_, dm_inv_, volume_, inv_rest_length_);
+  const double* x = w.x.data();
+  const double* v = w.v.data();
+  double* out = tet_force_.data();
+  const std::ptrdiff_t nb = static_cast<std::ptrdiff_t>(blocks_.size());
+#pragma omp parallel for schedule(static) if (nb > 1)
+  for (std::ptrdiff_t k = 0; k < nb; ++k) {
+    const Block& b = blocks_[k];
+    const Segment& s = segments_[b.segment];
+    block_forces(T, b.begin, b.begin + static_cast<std::size_t>(b.count), s, damping, x, v,
+                 out + 12 * (s.padded_begin + (b.begin - s.begin)));
+  }
+}
+
+void ElasticForces::gather_forces(const World& w, std::vector<double>& f, bool damping) const {
+  const double* tf = tet_force_.data();
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(w.n_owned);
+#pragma omp parallel for schedule(static) if (n >= kParallelVertices)
+  for (std::ptrdiff_t i = 0; i < n; ++i) {
+    double acc[3] = {0, 0, 0};
+    for (std::int64_t k = inc_offset_[i]; k < inc_offset_[i + 1]; ++k) {
+      const double* c = tf + inc_slot_[k];
+      acc[0] += c[0];
+      acc[1] += c[kLanes];
+      acc[2] += c[2 * kLanes];
+    }
+    double* fi = &f[3 * i];
+    if (damping && w.inv_mass[i] != 0 && vertex_alpha_[i] > 0) {
+      const double am = vertex_alpha_[i] * w.mass[i];
+      for (int d = 0; d < 3; ++d) acc[d] -= am * w.v[3 * i + d];
+    }
+    for (int d = 0; d < 3; ++d) fi[d] += acc[d];
+  }
+}
+
+namespace {
+
+/// Strain energy of one tet and whether it is inverted (det F <= 0).
+double tet_energy(const TetView& T, std::size_t t, const ElasticForces::Segment& s, const double* x, bool& inverted) {
+  const Mat3 Di = load_dm_inv(T, t);
+  const Mat3 F = gradient_at(T, t, x, Di);
+  inverted = !(det(F) > 0);
+  const Lame l = lame_of(s);
+  switch (s.model) {
+    case ModelKind::linear: return T.volume[t] * LinearLaw{l, 0}.energy(F);
+    case ModelKind::corotational: return T.volume[t] * CorotationalLaw{l, 0}.energy(F);
+    case ModelKind::stvk: return T.volume[t] * StvkLaw{l, 0}.energy(F);
+    case ModelKind::neohookean: return T.volume[t] * NeoHookeanLaw(l, 0).energy(F);
+    case ModelKind::mass_spring: return spring_energy(T, t, s.young, x);
+  }
+  return 0;
+}
+
+}  // namespace
+
+void ElasticForces::measure(const World& w, ElasticMeasures& out) const {
+  out.energy.assign(w.owned_objects.size(), 0.0);
+  out.inverted.assign(w.owned_objects.size(), 0);
+  const TetView T = make_view(corner_, dm_inv_, volume_, inv_rest_length_);
+  const std::ptrdiff_t ns = static_cast<std::ptrdiff_t>(segments_.size());
+  // One object per iteration, its tets summed in order: deterministic for any thread count.
+#pragma omp parallel for schedule(dynamic) if (ns > 1)
+  for (std::ptrdiff_t k = 0; k < ns; ++k) {
+    const Segment& s = segments_[k];
+    if (!s.active) continue;
+    double e = 0;
+    std::int64_t inv = 0;
+    for (std::size_t t = s.begin; t < s.end; ++t) {
+      bool inverted = false;
+      e += tet_energy(T, t, s, w.x.data(), inverted);
+      inv += inverted ? 1 : 0;
+    }
+    out.energy[s.owned] += e;
+    out.inverted[s.owned] += inv;
+  }
+}
+
+void ElasticForces::tet_forces(std::size_t t, const double* x, double f[12]) const {
+  const TetView T = make_view(corner_, dm_inv_, volume_, inv_rest_length_);
+  double out[12 * kLanes];
+  block_forces(T, t, t + 1, segments_[tet_segment_[t]], false, x, nullptr, out);
+  for (int k = 0; k < 12; ++k) f[k] = out[k * kLanes];  // lane 0
+}
+
+void ElasticForces::tet_stiffness(std::size_t t, const double* x, StiffnessKind kind, double K[144]) const {
+  const TetView T = make_view(corner_, dm_inv_, volume_, inv_rest_length_);
+  const Segment& s = segments_[tet_segment_[t]];
+  const Lame l = lame_of(s);
+  const Mat3 Di = load_dm_inv(T, t);
+  const Mat3 F = gradient_at(T, t, x, Di);
+  const double V = T.volume[t];
+  if (s.model == ModelKind::linear || (s.model == ModelKind::corotational && kind == StiffnessKind::implicit)) {
+    // Closed form of V G^T C G for Hooke's law (C: lambda, mu), block (a, b):
+    //   K_ab = V (mu (g_a . g_b) I + mu g_b g_a^T + lambda g_a g_b^T),
+    // and for the corotational model the warped blocks R K_ab R^T.
+    const Mat3 R = s.model == ModelKind::corotational ? rotation_part(F) : kIdentity3;
+    double g[12];
+    shape_gradients(Di, g);
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) {
+        const double* ga = g + 3 * a;
+        const double* gb = g + 3 * b;
+        const double gg = ga[0] * gb[0] + ga[1] * gb[1] + ga[2] * gb[2];
+        Mat3 k;
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            k[3 * i + j] = V * ((i == j ? l.mu * gg : 0.0) + l.mu * gb[i] * ga[j] + l.lambda * ga[i] * gb[j]);
+        if (s.model == ModelKind::corotational) k = mul_nt(mul(R, k), R);
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) K[12 * (3 * a + i) + 3 * b + j] = k[3 * i + j];
+      }
+    return;
+  }
+  Mat9 D{};
+  switch (s.model) {
+    case ModelKind::corotational: D = CorotationalLaw{l, 0}.stress_derivative(F); break;
+    case ModelKind::stvk: D = StvkLaw{l, 0}.stress_derivative(F); break;
+    case ModelKind::neohookean: D = NeoHookeanLaw(l, 0).stress_derivative(F); break;
+    case ModelKind::mass_spring: {
+      // Rest corners relative to corner 0 from Dm = (Dm^-1)^-1 (columns X1-X0, X2-X0, X3-X0).
+      const Mat3 dc = cofactor(Di);
+      const double dd = Di[0] * dc[0] + Di[3] * dc[3] + Di[6] * dc[6];
+      double X[12] = {0, 0, 0};
+      for (int a = 1; a <= 3; ++a)
+        for (int i = 0; i < 3; ++i) X[3 * a + i] = dc[3 * (a - 1) + i] / dd;  // Dm_(i,a-1) = cof(Di)_(a-1,i) / det
+      D = MassSpringLaw::from_rest(s.young, 0, X).stress_derivative(F);
+      break;
+    }
+    case ModelKind::linear: break;
+  }
+  element_stiffness(D, Di, V, K);
+}
+
+}  // namespace softcontact

@@ -1,0 +1,76 @@
+#pragma once
+// Helpers shared by the collision tests: scenes from YAML, moving objects, the
+// brute-force reference (every surface vertex against every tet of every other object).
+#include <array>
+#include <cmath>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "collide/collision_topology.hpp"
+#include "collide/point_in_tet.hpp"
+#include "softcontact/collision.hpp"
+#include "softcontact/scene.hpp"
+#include "softcontact/world.hpp"
+
+namespace softcontact::test {
+
+inline const char* kMaterials = R"(
+simulation: {dt: 0.001, steps: 1}
+materials:
+  - {name: m, young: 1e5, poisson: 0.3, density: 1000}
+)";
+
+/// A World (one rank) from the `objects:` part of a scene.
+inline World world_from_objects(const std::string& objects) {
+  const Scene s = load_scene_from_string(std::string(kMaterials) + "objects:\n" + objects, "test.yaml");
+  return build_world(s, block_partition(s, 1), 0);
+}
+
+inline void translate_object(World& w, int object, const std::array<double, 3>& t) {
+  for (std::size_t v = 0; v < w.n_local(); ++v)
+    if (w.vertex_object[v] == object)
+      for (int d = 0; d < 3; ++d) w.x[3 * v + d] += t[d];
+}
+
+/// (point, other object) of every surface vertex strictly inside a tet of another object.
+inline std::set<std::pair<index_t, std::int32_t>> brute_force_pairs(const World& w) {
+  const collide::CollisionTopology topo = collide::build_collision_topology(w);
+  std::set<std::pair<index_t, std::int32_t>> out;
+  const std::size_t m = w.tets.size() / 4;
+  for (std::size_t v = 0; v < w.n_local(); ++v) {
+    if (!topo.surface[v]) continue;
+    const collide::V3 p = collide::load(w.x.data(), static_cast<index_t>(v));
+    if (!collide::finite(p)) continue;
+    for (std::size_t e = 0; e < m; ++e) {
+      if (w.tet_object[e] == w.vertex_object[v]) continue;
+      if (collide::point_in_tet(w.x.data(), &w.tets[4 * e], topo.boundary_mask[e], p) == collide::TetSide::inside)
+        out.insert({static_cast<index_t>(v), w.tet_object[e]});
+    }
+  }
+  return out;
+}
+
+inline std::set<std::pair<index_t, std::int32_t>> record_pairs(const std::vector<Collision>& c) {
+  std::set<std::pair<index_t, std::int32_t>> out;
+  for (const Collision& r : c) out.insert({r.point, r.other_object});
+  return out;
+}
+
+inline bool all_finite(const std::vector<Collision>& c) {
+  for (const Collision& r : c)
+    for (int d = 0; d < 3; ++d)
+      if (!std::isfinite(r.depth[d]) || !std::isfinite(r.weight[d])) return false;
+  return true;
+}
+
+/// Sum_j omega_j x~_j over T_i.
+inline std::array<double, 3> weighted_point(const World& w, const Collision& c) {
+  std::array<double, 3> q{0, 0, 0};
+  for (int j = 0; j < 3; ++j)
+    for (int d = 0; d < 3; ++d) q[d] += c.weight[j] * w.x[3 * static_cast<std::size_t>(c.triangle[j]) + d];
+  return q;
+}
+
+}  // namespace softcontact::test

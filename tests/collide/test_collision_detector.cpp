@@ -1,0 +1,402 @@
+// The collision detector end to end on scenes with known answers: a block pushed into a
+// fixed block by a known depth (flat contact: exact up to rounding), self-collisions, the
+// tunnelling diagnostic, and agreement with the brute-force reference.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <random>
+
+#include "collide_test_util.hpp"
+
+using namespace softcontact;
+using namespace softcontact::test;
+
+namespace {
+
+// base: z in [-0.5, 0.5], cells 0.25; block: 1 x 1 x 0.5 with cells 0.25, its bottom at
+// 0.5 - depth, shifted sideways by (sx, sy) so that its footprint stays inside the
+// base's top face away from the base's edges (there the smoothed normals tilt).
+World pushed_blocks(double depth, double sx, double sy) {
+  const double z = 0.75 - depth;
+  return world_from_objects(R"(
+  - name: base
+    material: m
+    primitive: {type: box, size: [2, 2, 1], cells: [8, 8, 4]}
+    kinematic: true
+  - name: block
+    material: m
+    primitive: {type: box, size: [1, 1, 0.5], cells: [4, 4, 2]}
+    transform: {translate: [)" + std::to_string(sx) + ", " + std::to_string(sy) + ", " +
+                            std::to_string(z) + "]}\n");
+}
+
+// Every surface vertex of the block below the base's top plane is found; d_i = (0, 0,
+// 0.5 - z_i) within 1e-9 (the top is flat and its smoothed normals are exactly +z inside
+// the face, so the weighted crossings and the propagation are exact up to rounding); T_i
+// lies in the top face and its weights reproduce x~_i + d_i. The base's top vertices
+// under the block are inside the block in turn: they must match the brute-force
+// reference, with valid records (their crossings near the block's edges see tilted
+// smoothed normals, so no exact value is expected of them).
+void check_pushed_block(double depth, double sx, double sy, std::int64_t block_points, std::int64_t block_border) {
+  World w = pushed_blocks(depth, sx, sy);
+  CollisionDetector det(w, {});
+  std::vector<Collision> c;
+  CollisionStats st;
+  det.detect(w, nullptr, c, st);
+  const collide::CollisionTopology topo = collide::build_collision_topology(w);
+  EXPECT_EQ(record_pairs(c), brute_force_pairs(w));
+  ASSERT_TRUE(all_finite(c));
+
+  std::set<index_t> expected;
+  for (std::size_t v = 0; v < w.n_local(); ++v)
+    if (w.vertex_object[v] == 1 && topo.surface[v] && w.x[3 * v + 2] < 0.5) expected.insert(static_cast<index_t>(v));
+  std::set<index_t> found;
+  std::int64_t base_points = 0;
+  for (const Collision& r : c) {
+    if (r.object == 1) found.insert(r.point);
+    base_points += r.object == 0;
+  }
+  EXPECT_EQ(found, expected);
+  EXPECT_EQ(static_cast<std::int64_t>(found.size()), block_points);
+  EXPECT_EQ(st.colliding_points, block_points + base_points);
+  EXPECT_EQ(st.collisions, block_points + base_points);
+  EXPECT_GE(st.border_points, block_border);
+  EXPECT_EQ(st.deep_fallbacks, 0);
+  EXPECT_EQ(st.self_collisions, 0);
+  EXPECT_EQ(st.degenerate_skipped, 0);
+  EXPECT_EQ(st.surface_searches, 0);
+
+  std::int64_t block_border_found = 0;
+  for (std::size_t k = 0; k < c.size(); ++k) {
+    const Collision& r = c[k];
+    const auto i = static_cast<std::size_t>(r.point);
+    EXPECT_FALSE(r.fallback);
+    EXPECT_EQ(r.point_gid, w.vertex_gid[i]);
+    EXPECT_EQ(r.other_object, 1 - r.object);
+    if (k > 0) {
+      EXPECT_LT(c[k - 1].point_gid, r.point_gid);
+    }
+    double sum = 0;
+    for (int j = 0; j < 3; ++j) {
+      EXPECT_GE(r.weight[j], 0);
+      EXPECT_LE(r.weight[j], 1);
+      sum += r.weight[j];
+    }
+    EXPECT_NEAR(sum, 1, 1e-12);
+    // The triangle's gid names the row holding the same vertices.
+    const auto row = static_cast<std::size_t>(r.triangle_gid - w.layout[0].triangle_begin);
+    for (int j = 0; j < 3; ++j) EXPECT_EQ(w.triangles[3 * row + j], r.triangle[j]);
+    if (r.object == 0) continue;
+    EXPECT_NEAR(r.depth[0], 0, 1e-9);
+    EXPECT_NEAR(r.depth[1], 0, 1e-9);
+    EXPECT_NEAR(r.depth[2], 0.5 - w.x[3 * i + 2], 1e-9) << "vertex " << i;
+    for (int j = 0; j < 3; ++j) EXPECT_EQ(w.x[3 * static_cast<std::size_t>(r.triangle[j]) + 2], 0.5);  // top face
+    const auto q = weighted_point(w, r);
+    for (int d = 0; d < 3; ++d) EXPECT_NEAR(q[d], w.x[3 * i + d] + r.depth[d], 1e-9) << "vertex " << i << " axis " << d;
+    // A block vertex with an edge to a vertex above the top plane is a border point.
+    for (std::size_t e = topo.edge_begin[i]; e < topo.edge_begin[i + 1]; ++e)
+      if (w.x[3 * static_cast<std::size_t>(topo.edge_to[e]) + 2] > 0.5) {
+        ++block_border_found;
+        break;
+      }
+  }
+  EXPECT_EQ(block_border_found, block_border);
+}
+
+}  // namespace
+
+// Depth 0.1 < one cell layer: the block's bottom face (5 x 5 vertices) is inside, every
+// one of them a border point. The sideways shift puts the block's vertices off the base's
+// vertex columns.
+TEST(CollisionDetector, BlockPushedIntoBlockShallow) { check_pushed_block(0.1, 0.1, 0.05, 25, 25); }
+
+// The block's vertices right above the base's vertex columns: its bottom vertices lie on
+// vertical edges of the base, shared by several tets (the tie rule gives each to one).
+TEST(CollisionDetector, BlockPushedIntoBlockOnGridLines) { check_pushed_block(0.1, 0, 0, 25, 25); }
+
+// Depth 0.3 > one layer: the bottom face (25) and the 16 side vertices of the next layer
+// are inside; only those 16 have border edges, the bottom face takes its depth by
+// propagation (three layers: ring, inner ring, centre), exactly for a flat surface.
+TEST(CollisionDetector, BlockPushedIntoBlockDeepPropagates) { check_pushed_block(0.3, 0.1, 0.05, 41, 16); }
+
+namespace {
+
+// A random scene: `n` objects (tori, spheres, boxes) at random positions in a small
+// region so that many overlap, with random orientations, then every vertex jittered
+// (which also inverts and flattens some tets).
+World random_scene(std::uint64_t seed, int n, double jitter) {
+  std::mt19937_64 g(seed);
+  std::uniform_real_distribution<double> pos(-0.25, 0.25), ang(0, 360);
+  std::string yaml;
+  for (int k = 0; k < n; ++k) {
+    const char* prim[3] = {"{type: torus, major_radius: 0.15, minor_radius: 0.05, resolution: 3, around: 12}",
+                           "{type: sphere, radius: 0.12, resolution: 4}",
+                           "{type: box, size: [0.3, 0.15, 0.1], cells: [3, 2, 2]}"};
+    yaml += "  - material: m\n    primitive: " + std::string(prim[g() % 3]) + "\n    transform: {rotate: [" +
+            std::to_string(ang(g)) + ", " + std::to_string(ang(g)) + ", " + std::to_string(ang(g)) +
+            "], translate: [" + std::to_string(pos(g)) + ", " + std::to_string(pos(g)) + ", " + std::to_string(pos(g)) +
+            "]}\n";
+  }
+  World w = world_from_objects(yaml);
+  std::uniform_real_distribution<double> u(-jitter, jitter);
+  for (double& c : w.x) c += u(g);
+  return w;
+}
+
+}  // namespace
+
+// The detector finds exactly the (point, other object) pairs of the brute-force
+// reference (every surface vertex against every tet of every other object, with the
+// same point-in-tet test), on random scenes with deformed and inverted tets.
+TEST(CollisionDetector, MatchesBruteForceOnRandomScenes) {
+  std::int64_t total = 0;
+  for (std::uint64_t seed = 1; seed <= 6; ++seed) {
+    const World w = random_scene(seed, 6, seed % 2 ? 0.0 : 0.01);
+    CollisionDetector det(w, {});
+    std::vector<Collision> c;
+    CollisionStats st;
+    det.detect(w, nullptr, c, st);
+    EXPECT_EQ(record_pairs(c), brute_force_pairs(w)) << "seed " << seed;
+    EXPECT_TRUE(all_finite(c));
+    std::set<index_t> points;
+    for (const Collision& r : c) points.insert(r.point);
+    EXPECT_EQ(st.colliding_points, static_cast<std::int64_t>(points.size()));
+    EXPECT_EQ(st.collisions, static_cast<std::int64_t>(c.size()));
+    for (std::size_t k = 1; k < c.size(); ++k)
+      EXPECT_TRUE(c[k - 1].point_gid < c[k].point_gid ||
+                  (c[k - 1].point_gid == c[k].point_gid && c[k - 1].triangle_gid < c[k].triangle_gid));
+    for (const Collision& r : c) {
+      double sum = 0;
+      for (int j = 0; j < 3; ++j) {
+        EXPECT_GE(r.weight[j], 0);
+        sum += r.weight[j];
+        EXPECT_EQ(w.vertex_object[static_cast<std::size_t>(r.triangle[j])], r.other_object);
+      }
+      EXPECT_NEAR(sum, 1, 1e-12);
+    }
+    total += st.collisions;
+  }
+  EXPECT_GT(total, 100);
+}
+
+// Bitwise the same records, in the same order, with 1 and 2 threads.
+TEST(CollisionDetector, SameRecordsWithOneAndTwoThreads) {
+  const World w = random_scene(42, 10, 0.005);
+  const int before = omp_get_max_threads();
+  std::vector<Collision> c1, c2;
+  CollisionStats s1, s2;
+  omp_set_num_threads(1);
+  CollisionDetector(w, {}).detect(w, w.x_prev.data(), c1, s1);
+  omp_set_num_threads(2);
+  CollisionDetector(w, {}).detect(w, w.x_prev.data(), c2, s2);
+  omp_set_num_threads(before);
+  ASSERT_GT(c1.size(), 20u);
+  ASSERT_EQ(c1.size(), c2.size());
+  for (std::size_t k = 0; k < c1.size(); ++k) {
+    const Collision &a = c1[k], &b = c2[k];
+    EXPECT_EQ(a.point, b.point);
+    EXPECT_EQ(a.triangle, b.triangle);
+    EXPECT_EQ(a.point_gid, b.point_gid);
+    EXPECT_EQ(a.triangle_gid, b.triangle_gid);
+    EXPECT_EQ(a.object, b.object);
+    EXPECT_EQ(a.other_object, b.other_object);
+    EXPECT_EQ(a.fallback, b.fallback);
+    EXPECT_EQ(std::memcmp(a.weight.data(), b.weight.data(), sizeof(a.weight)), 0);
+    EXPECT_EQ(std::memcmp(a.depth.data(), b.depth.data(), sizeof(a.depth)), 0);
+  }
+  EXPECT_EQ(s1.colliding_points, s2.colliding_points);
+  EXPECT_EQ(s1.border_points, s2.border_points);
+  EXPECT_EQ(s1.deep_fallbacks, s2.deep_fallbacks);
+  EXPECT_EQ(s1.degenerate_skipped, s2.degenerate_skipped);
+  EXPECT_EQ(s1.surface_searches, s2.surface_searches);
+  EXPECT_EQ(s1.max_step_over_thickness, s2.max_step_over_thickness);
+}
+
+// A surface vertex pushed into the middle of its own box: inside a tet not incident to
+// it. Counted only with self-collisions on; never a record.
+TEST(CollisionDetector, SelfCollisionsCountedBehindTheSwitch) {
+  World w = world_from_objects("  - material: m\n    primitive: {type: box, size: [1, 1, 1], cells: [4, 4, 4]}\n");
+  // The top centre vertex (0, 0, 0.5) moved to (0.01, 0.02, -0.2).
+  std::size_t top = w.n_local();
+  for (std::size_t v = 0; v < w.n_local(); ++v)
+    if (w.x[3 * v] == 0 && w.x[3 * v + 1] == 0 && w.x[3 * v + 2] == 0.5) top = v;
+  ASSERT_LT(top, w.n_local());
+  w.x[3 * top] = 0.01;
+  w.x[3 * top + 1] = 0.02;
+  w.x[3 * top + 2] = -0.2;
+  std::vector<Collision> c;
+  CollisionStats st;
+  CollisionDetector(w, {}).detect(w, nullptr, c, st);
+  EXPECT_EQ(st.self_collisions, 0);
+  EXPECT_TRUE(c.empty());
+  CollisionSettings self;
+  self.self_collisions = true;
+  CollisionDetector(w, self).detect(w, nullptr, c, st);
+  EXPECT_EQ(st.self_collisions, 1);
+  EXPECT_TRUE(c.empty());
+}
+
+// max_step_over_thickness: the largest |x~ - x^t| over the thinnest object's thickness
+// (smallest extent along its principal and coordinate axes: 0.2 for the plate).
+TEST(CollisionDetector, TunnellingDiagnostic) {
+  World w = world_from_objects(R"(
+  - material: m
+    primitive: {type: box, size: [2, 2, 0.2], cells: [4, 4, 1]}
+    kinematic: true
+  - material: m
+    primitive: {type: sphere, radius: 0.3, resolution: 4}
+    transform: {rotate: [10, 20, 30], translate: [0, 0, 3]}
+)");
+  const std::vector<double> before = w.x;
+  translate_object(w, 1, {0, 0, -0.05});
+  w.x[3 * (w.n_local() - 1) + 2] -= 0.05;  // one vertex moves 0.1 in all
+  std::vector<Collision> c;
+  CollisionStats st;
+  CollisionDetector det(w, {});
+  det.detect(w, before.data(), c, st);
+  EXPECT_NEAR(st.max_step_over_thickness, 0.1 / 0.2, 1e-12);
+  det.detect(w, nullptr, c, st);
+  EXPECT_EQ(st.max_step_over_thickness, 0);
+}
+
+TEST(CollisionDetector, SeparatedAndEmptyScenes) {
+  World w = world_from_objects(R"(
+  - material: m
+    primitive: {type: box, size: [1, 1, 1], cells: [2, 2, 2]}
+  - material: m
+    primitive: {type: box, size: [1, 1, 1], cells: [2, 2, 2]}
+    transform: {translate: [1.0001, 0, 0]}
+)");
+  std::vector<Collision> c(3);
+  CollisionStats st;
+  CollisionDetector(w, {}).detect(w, nullptr, c, st);
+  EXPECT_TRUE(c.empty());
+  EXPECT_EQ(st.colliding_points, 0);
+  EXPECT_EQ(st.degenerate_skipped, 0);
+  World empty;
+  CollisionDetector(empty, {}).detect(empty, nullptr, c, st);
+  EXPECT_TRUE(c.empty());
+  EXPECT_EQ(st.max_step_over_thickness, 0);
+}
+
+// Touching faces (a box resting exactly on another, vertices on the other's surface):
+// not strictly inside, so nothing is reported except, at most, points exactly on
+// surface edges that the tie rule hands to an interior tet, with zero depth.
+TEST(CollisionDetector, TouchingIsNotPenetrating) {
+  World w = world_from_objects(R"(
+  - material: m
+    primitive: {type: box, size: [1, 1, 1], cells: [4, 4, 4]}
+    kinematic: true
+  - material: m
+    primitive: {type: box, size: [0.5, 0.5, 0.5], cells: [2, 2, 2]}
+    transform: {translate: [0.125, 0, 0.75]}
+)");
+  std::vector<Collision> c;
+  CollisionStats st;
+  CollisionDetector(w, {}).detect(w, nullptr, c, st);
+  EXPECT_TRUE(all_finite(c));
+  for (const Collision& r : c) EXPECT_LE(std::sqrt(r.depth[0] * r.depth[0] + r.depth[1] * r.depth[1] + r.depth[2] * r.depth[2]), 1e-12);
+  EXPECT_EQ(record_pairs(c), brute_force_pairs(w));
+}
+
+// A vertex of a small box exactly on a face shared by two tets of a large box (and one
+// exactly at the large box's centre, a vertex shared by 24 tets): one record each, and
+// the brute force finds exactly one tet holding it.
+TEST(CollisionDetector, VertexOnSharedFaceFoundOnce) {
+  // Big box [-0.5, 0.5]^3 in 2 x 2 x 2 cells; the small box's corner at the centre.
+  World w = world_from_objects(R"(
+  - material: m
+    primitive: {type: box, size: [1, 1, 1], cells: [2, 2, 2]}
+    kinematic: true
+  - material: m
+    primitive: {type: box, size: [1, 1, 1], cells: [1, 1, 1]}
+    transform: {translate: [0.5, 0.5, 0.5]}
+)");
+  const collide::CollisionTopology topo = collide::build_collision_topology(w);
+  std::vector<Collision> c;
+  CollisionStats st;
+  CollisionDetector(w, {}).detect(w, nullptr, c, st);
+  ASSERT_TRUE(all_finite(c));
+  EXPECT_EQ(record_pairs(c), brute_force_pairs(w));
+  int at_centre = 0;
+  for (const Collision& r : c) {
+    const auto i = static_cast<std::size_t>(r.point);
+    if (r.object != 1 || w.x[3 * i] != 0 || w.x[3 * i + 1] != 0 || w.x[3 * i + 2] != 0) continue;
+    ++at_centre;
+    int holders = 0;
+    for (std::size_t e = 0; e < w.tets.size() / 4; ++e)
+      if (w.tet_object[e] == 0)
+        holders += collide::point_in_tet(w.x.data(), &w.tets[4 * e], topo.boundary_mask[e], {0, 0, 0}) ==
+                   collide::TetSide::inside;
+    EXPECT_EQ(holders, 1);
+  }
+  EXPECT_EQ(at_centre, 1);
+  // Moved onto the plane x = 0 (faces shared by tets of both cells).
+  translate_object(w, 1, {0, 0.125, 0.0625});
+  CollisionDetector(w, {}).detect(w, nullptr, c, st);
+  EXPECT_EQ(record_pairs(c), brute_force_pairs(w));
+  EXPECT_EQ(st.collisions, static_cast<std::int64_t>(record_pairs(c).size()));
+}
+
+// Degenerate inputs: a collapsed surface triangle (and the flat tets and zero-length
+// edges it makes) in the penetrated body, a zero-length edge in the penetrating one,
+// two coincident bodies, and a non-finite position: every record stays finite and the
+// degenerate cases are counted.
+TEST(CollisionDetector, DegenerateInputsStayFinite) {
+  World w = world_from_objects(R"(
+  - material: m
+    primitive: {type: box, size: [1, 1, 1], cells: [4, 4, 4]}
+    kinematic: true
+  - material: m
+    primitive: {type: box, size: [0.5, 0.5, 0.5], cells: [2, 2, 2]}
+    transform: {translate: [0.05, 0.02, 0.6]}
+  - material: m
+    primitive: {type: sphere, radius: 0.2, resolution: 4}
+    transform: {translate: [3, 0, 0]}
+  - material: m
+    primitive: {type: sphere, radius: 0.2, resolution: 4}
+    transform: {translate: [3, 0, 0]}
+)");
+  auto find = [&](int obj, double x, double y, double z) {
+    for (std::size_t v = 0; v < w.n_local(); ++v)
+      if (w.vertex_object[v] == obj && std::abs(w.x[3 * v] - x) < 1e-12 && std::abs(w.x[3 * v + 1] - y) < 1e-12 &&
+          std::abs(w.x[3 * v + 2] - z) < 1e-12)
+        return v;
+    return w.n_local();
+  };
+  // Collapse the big box's top vertex (0.25, 0, 0.5) onto (0, 0, 0.5).
+  const std::size_t a = find(0, 0.25, 0, 0.5), b = find(0, 0, 0, 0.5);
+  ASSERT_LT(a, w.n_local());
+  ASSERT_LT(b, w.n_local());
+  for (int d = 0; d < 3; ++d) w.x[3 * a + d] = w.x[3 * b + d];
+  // A zero-length edge in the small box's bottom face: (0.05, 0.02, 0.35) onto (0.3, 0.02, 0.35).
+  const std::size_t p = find(1, 0.05, 0.02, 0.35), q = find(1, 0.3, 0.02, 0.35);
+  ASSERT_LT(p, w.n_local());
+  ASSERT_LT(q, w.n_local());
+  for (int d = 0; d < 3; ++d) w.x[3 * p + d] = w.x[3 * q + d];
+
+  std::vector<Collision> c;
+  CollisionStats st;
+  CollisionDetector det(w, {});
+  det.detect(w, nullptr, c, st);
+  EXPECT_TRUE(all_finite(c));
+  EXPECT_GT(st.collisions, 0);
+  EXPECT_GT(st.degenerate_skipped, 0);
+  // Coincident spheres: every vertex of each lies on the other's surface (surface
+  // vertices coincide), so neither is inside the other.
+  for (const Collision& r : c) EXPECT_LE(r.object, 1);
+
+  // A non-finite position: set aside and counted, nothing non-finite comes out.
+  w.x[3 * q + 1] = std::numeric_limits<double>::quiet_NaN();
+  const std::int64_t before = st.degenerate_skipped;
+  det.detect(w, nullptr, c, st);
+  EXPECT_TRUE(all_finite(c));
+  EXPECT_GT(st.degenerate_skipped, before);
+  w.x[3 * q] = std::numeric_limits<double>::infinity();
+  det.detect(w, w.x.data(), c, st);
+  EXPECT_TRUE(all_finite(c));
+  EXPECT_TRUE(std::isfinite(st.max_step_over_thickness));
+}

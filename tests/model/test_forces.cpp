@@ -1,0 +1,296 @@
+// ElasticForces (src/model/forces.cpp): the assembled forces are minus the gradient of
+// the measured energy, the element stiffness the derivative of the element forces (also
+// on near-flat and inverted tets), rigid motions give no force, the vectorised kernels
+// agree with the scalar laws, and the sum does not depend on the thread count.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <string>
+
+#include "model/corotational.hpp"
+#include "model/linear.hpp"
+#include "model/neohookean.hpp"
+#include "model/stvk.hpp"
+#include "model/mass_spring.hpp"
+#include "softcontact/forces.hpp"
+#include "softcontact/scene.hpp"
+#include "softcontact/world.hpp"
+
+using namespace softcontact;
+
+namespace {
+
+/// Scientific notation for RecordProperty (std::to_string rounds small numbers to 0).
+std::string sci(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2e", v);
+  return buf;
+}
+
+const char* const kModels[] = {"linear", "corotational", "stvk", "neohookean", "mass_spring"};
+
+/// One object of the given model: a box of 1 x 0.8 x 0.6 m, by default 2x2x2 cells (48
+/// tets), no gravity.
+Scene box(const std::string& model, const std::string& cells = "[2, 2, 2]") {
+  return load_scene_from_string("simulation: {dt: 1e-4, steps: 1, gravity: [0, 0, 0]}\n"
+                                "materials:\n  - {name: m, model: " + model +
+                                    ", young: 1e5, poisson: 0.3, density: 1000}\n"
+                                    "objects:\n  - material: m\n"
+                                    "    primitive: {type: box, size: [1, 0.8, 0.6], cells: " + cells + "}\n",
+                                "test.yaml");
+}
+
+void perturb(std::vector<double>& x, double s, std::uint64_t seed) {
+  std::mt19937_64 g(seed);
+  std::uniform_real_distribution<double> u(-s, s);
+  for (double& v : x) v += u(g);
+}
+
+double energy(const ElasticForces& ef, const World& w) {
+  ElasticMeasures m;
+  ef.measure(w, m);
+  return m.energy[0];
+}
+
+std::vector<double> forces(ElasticForces& ef, const World& w) {
+  std::vector<double> f(w.x.size(), 0.0);
+  ef.add_forces(w, f, false);
+  return f;
+}
+
+}  // namespace
+
+TEST(ElasticForces, ForcesAreMinusTheEnergyGradient) {
+  for (const char* model : kModels) {
+    const Scene s = box(model);
+    World w = build_world(s, block_partition(s, 1), 0);
+    ElasticForces ef(s, w);
+    perturb(w.x, 0.08, 7);  // strains of ~20 %
+    const std::vector<double> f = forces(ef, w);
+    double fmax = 0;
+    for (double v : f) fmax = std::max(fmax, std::abs(v));
+    const double h = 1e-7;
+    double worst = 0;
+    for (std::size_t k = 0; k < w.x.size(); ++k) {
+      const double x0 = w.x[k];
+      w.x[k] = x0 + h;
+      const double ep = energy(ef, w);
+      w.x[k] = x0 - h;
+      const double em = energy(ef, w);
+      w.x[k] = x0;
+      EXPECT_NEAR(f[k], -(ep - em) / (2 * h), 1e-6 * fmax) << model << " dof " << k;
+      worst = std::max(worst, std::abs(f[k] + (ep - em) / (2 * h)) / fmax);
+    }
+    RecordProperty(std::string("worst_") + model, sci(worst));
+  }
+}
+
+// K = -df/dx of one tet against central differences of its corner forces, on a regular
+// strained tet, a near-flat one (height 1e-3 of its size) and an inverted one. The
+// corotational model's implicit (warped) stiffness equals the exact one at rotated rest
+// states; the linear model's equals it everywhere.
+TEST(ElasticForces, StiffnessIsTheDerivativeOfTheForces) {
+  for (const char* model : kModels) {
+    const Scene s = box(model);
+    World w = build_world(s, block_partition(s, 1), 0);
+    ElasticForces ef(s, w);
+    const std::size_t t = 5;
+    const index_t* tet = &w.tets[4 * t];
+    const std::vector<double> rest = w.x;
+    // Configurations of tet t's corners: strained, nearly flat (corner 3 moved almost
+    // into the plane of the others), inverted (corner 3 through that plane).
+    for (int config = 0; config < 3; ++config) {
+      w.x = rest;
+      perturb(w.x, 0.05, 11 + config);
+      if (config > 0) {
+        const double* a = &w.x[3 * tet[0]];
+        const double* b = &w.x[3 * tet[1]];
+        const double* c = &w.x[3 * tet[2]];
+        double* d = &w.x[3 * tet[3]];
+        const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+        double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+        const double nn = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        const double dist = (d[0] - a[0]) * n[0] / nn + (d[1] - a[1]) * n[1] / nn + (d[2] - a[2]) * n[2] / nn;
+        const double target = config == 1 ? 1e-3 * 0.5 : -0.1;  // signed height over the face plane
+        for (int k = 0; k < 3; ++k) d[k] += (target - dist) * n[k] / nn;
+      }
+      double K[144];
+      ef.tet_stiffness(t, w.x.data(), StiffnessKind::exact, K);
+      double worst = 0;
+      double kmax = 0;
+      for (double v : K) kmax = std::max(kmax, std::abs(v));
+      const double h = config == 1 ? 1e-9 : 1e-7;
+      for (int col = 0; col < 12; ++col) {
+        double* xc = &w.x[3 * tet[col / 3] + col % 3];
+        const double x0 = *xc;
+        double fp[12], fm[12];
+        *xc = x0 + h;
+        ef.tet_forces(t, w.x.data(), fp);
+        *xc = x0 - h;
+        ef.tet_forces(t, w.x.data(), fm);
+        *xc = x0;
+        for (int row = 0; row < 12; ++row) {
+          const double fd = -(fp[row] - fm[row]) / (2 * h);
+          EXPECT_NEAR(K[12 * row + col], fd, 2e-6 * kmax)
+              << model << " config " << config << " K(" << row << "," << col << ")";
+          worst = std::max(worst, std::abs(K[12 * row + col] - fd) / kmax);
+        }
+      }
+      RecordProperty(std::string("worst_") + model + "_" + std::to_string(config), sci(worst));
+    }
+  }
+  // Warped = exact at a rotated rest state (corotational); implicit = exact (linear).
+  for (const char* model : {"linear", "corotational"}) {
+    const Scene s = box(model);
+    World w = build_world(s, block_partition(s, 1), 0);
+    ElasticForces ef(s, w);
+    if (std::string(model) == "corotational")
+      for (std::size_t i = 0; i < w.n_local(); ++i) {  // 90 degrees about z
+        const double x = w.x[3 * i], y = w.x[3 * i + 1];
+        w.x[3 * i] = -y;
+        w.x[3 * i + 1] = x;
+      }
+    else
+      perturb(w.x, 0.05, 3);
+    double Ke[144], Ki[144];
+    ef.tet_stiffness(7, w.x.data(), StiffnessKind::exact, Ke);
+    ef.tet_stiffness(7, w.x.data(), StiffnessKind::implicit, Ki);
+    for (int k = 0; k < 144; ++k) EXPECT_NEAR(Ki[k], Ke[k], 1e-9 * 1e5) << model << " entry " << k;
+  }
+}
+
+// Translation and any rotation give zero force for every model but the linear one, which
+// is only invariant under translations and infinitesimal rotations.
+TEST(ElasticForces, RigidMotionsGiveNoForce) {
+  const double th = 1.2, c = std::cos(th), sn = std::sin(th);
+  for (const char* model : kModels) {
+    const Scene s = box(model);
+    World w = build_world(s, block_partition(s, 1), 0);
+    ElasticForces ef(s, w);
+    const bool linear = std::string(model) == "linear";
+    const double eps = linear ? 1e-7 : 1.0;  // rotation angle scale
+    for (std::size_t i = 0; i < w.n_local(); ++i) {
+      double* p = &w.x[3 * i];
+      const double x = p[0], y = p[1], z = p[2];
+      if (linear) {  // u = w x X, w = eps (1, 2, 3): an infinitesimal rotation
+        p[0] = x + eps * (2 * z - 3 * y) + 5;
+        p[1] = y + eps * (3 * x - 1 * z) - 2;
+        p[2] = z + eps * (1 * y - 2 * x) + 1;
+      } else {  // rotation by 1.2 rad about z, then about x, plus a translation
+        const double x1 = c * x - sn * y, y1 = sn * x + c * y;
+        p[0] = x1 + 5;
+        p[1] = c * y1 - sn * z - 2;
+        p[2] = sn * y1 + c * z + 1;
+      }
+    }
+    const std::vector<double> f = forces(ef, w);
+    // Scale: a force of 1e-9 of what a 1 % strain of one cell gives (E h^2 0.01 ~ 250 N).
+    double worst = 0;
+    for (std::size_t k = 0; k < f.size(); ++k) {
+      EXPECT_NEAR(f[k], 0.0, 1e-9 * 250) << model << " dof " << k;
+      worst = std::max(worst, std::abs(f[k]));
+    }
+    RecordProperty(std::string("max_force_") + model, sci(worst));
+    EXPECT_NEAR(energy(ef, w), 0.0, 1e-12 * 1e5) << model;
+  }
+}
+
+// The vectorised kernels (lanes of tets, all instruction-set variants) compute what the
+// scalar laws compute, tet by tet (the mass-spring kernel, in edge form, against the F
+// form of its energy), including a partial chunk at the end and an inverted tet (SVD).
+TEST(ElasticForces, KernelsAgreeWithTheScalarLaws) {
+  using namespace softcontact::model;
+  for (const char* model : kModels) {
+    const Scene s = box(model, "[3, 2, 1]");  // 36 tets: two pairs of chunks, then 4 tets
+    World w = build_world(s, block_partition(s, 1), 0);
+    ElasticForces ef(s, w);
+    const World rest = build_world(s, block_partition(s, 1), 0);
+    perturb(w.x, 0.1, 5);
+    // Invert tet 3 (corner 3 reflected through the centroid of the others).
+    const index_t* tet = &w.tets[12];
+    for (int d = 0; d < 3; ++d) {
+      const double cen = (w.x[3 * tet[0] + d] + w.x[3 * tet[1] + d] + w.x[3 * tet[2] + d]) / 3;
+      w.x[3 * tet[3] + d] = 2 * cen - w.x[3 * tet[3] + d];
+    }
+    const std::vector<double> f = forces(ef, w);
+    std::vector<double> ref(w.x.size(), 0.0);
+    const ElasticForces::Segment& seg = ef.segments()[0];
+    const Lame l{seg.lambda, seg.mu};
+    for (std::size_t t = 0; t < w.tet_gid.size(); ++t) {
+      const index_t* c = &w.tets[4 * t];
+      // Rest Dm^-1 from the rest positions.
+      const double* X[4] = {&rest.x[3 * c[0]], &rest.x[3 * c[1]], &rest.x[3 * c[2]], &rest.x[3 * c[3]]};
+      const Mat3 dm = {X[1][0] - X[0][0], X[2][0] - X[0][0], X[3][0] - X[0][0], X[1][1] - X[0][1], X[2][1] - X[0][1],
+                       X[3][1] - X[0][1], X[1][2] - X[0][2], X[2][2] - X[0][2], X[3][2] - X[0][2]};
+      const Mat3 cof = cofactor(dm);
+      Mat3 di;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) di[3 * i + j] = cof[3 * j + i] / det(dm);
+      const Mat3 F = deformation_gradient(&w.x[3 * c[0]], &w.x[3 * c[1]], &w.x[3 * c[2]], &w.x[3 * c[3]], di);
+      Mat3 P;
+      const std::string m = model;
+      if (m == "linear") P = LinearLaw{l, 0}.stress(F);
+      else if (m == "corotational") P = CorotationalLaw{l, 0}.stress(F);
+      else if (m == "stvk") P = StvkLaw{l, 0}.stress(F);
+      else if (m == "neohookean") P = NeoHookeanLaw(l, 0).stress(F);
+      else {  // the edge-form kernel against the F form of the same energy
+        double Xr[12];
+        for (int a = 0; a < 4; ++a)
+          for (int d = 0; d < 3; ++d) Xr[3 * a + d] = X[a][d];
+        P = MassSpringLaw::from_rest(seg.young, 0, Xr).stress(F);
+      }
+      double fc[12];
+      corner_forces(P, di, ef.rest_volume(t), fc);
+      for (int a = 0; a < 4; ++a)
+        for (int d = 0; d < 3; ++d) ref[3 * c[a] + d] += fc[3 * a + d];
+    }
+    double fmax = 0;
+    for (double v : ref) fmax = std::max(fmax, std::abs(v));
+    for (std::size_t k = 0; k < f.size(); ++k) EXPECT_NEAR(f[k], ref[k], 1e-12 * fmax) << model << " dof " << k;
+  }
+}
+
+TEST(ElasticForces, SumDoesNotDependOnThreadCount) {
+  for (const char* model : kModels) {
+    const Scene s = load_scene_from_string(
+        std::string("simulation: {dt: 1e-4, steps: 1, gravity: [0, 0, 0]}\nmaterials:\n  - {name: m, model: ") + model +
+            ", young: 1e5, poisson: 0.3, density: 1000, damping: {mass: 0.5, stiffness: 0.01}}\n"
+            "objects:\n  - material: m\n    primitive: {type: sphere, radius: 0.5, resolution: 8}\n",
+        "test.yaml");
+    World w = build_world(s, block_partition(s, 1), 0);
+    ElasticForces ef(s, w);
+    perturb(w.x, 0.02, 9);
+    perturb(w.v, 1.0, 10);
+    const int before = omp_get_max_threads();
+    std::vector<std::vector<double>> results;
+    for (int threads : {1, 2, 3}) {
+      omp_set_num_threads(threads);
+      std::vector<double> f(w.x.size(), 0.0);
+      ef.add_forces(w, f, true);
+      results.push_back(f);
+    }
+    omp_set_num_threads(before);
+    for (std::size_t r = 1; r < results.size(); ++r)
+      for (std::size_t k = 0; k < results[0].size(); ++k)
+        ASSERT_EQ(results[r][k], results[0][k]) << model << " dof " << k << " with " << r + 1 << " threads";
+  }
+}
+
+TEST(ElasticForces, MeasureCountsInvertedTets) {
+  const Scene s = box("neohookean");
+  World w = build_world(s, block_partition(s, 1), 0);
+  ElasticForces ef(s, w);
+  ElasticMeasures m;
+  ef.measure(w, m);
+  ASSERT_EQ(m.energy.size(), 1u);
+  EXPECT_EQ(m.energy[0], 0.0);
+  EXPECT_EQ(m.inverted[0], 0);
+  // Flatten the box completely in z: every tet has det F = 0 (counted as inverted).
+  for (std::size_t i = 0; i < w.n_local(); ++i) w.x[3 * i + 2] = 0;
+  ef.measure(w, m);
+  EXPECT_EQ(m.inverted[0], 48);
+  EXPECT_GT(m.energy[0], 0.0);
+}
