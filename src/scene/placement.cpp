@@ -61,6 +61,16 @@ Sphere bounding_sphere(const TetMesh& m) {
   return s;
 }
 
+AxisBox bounding_box(const TetMesh& m) {
+  AxisBox b{{HUGE_VAL, HUGE_VAL, HUGE_VAL}, {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL}};
+  for (std::size_t i = 0; i < m.num_vertices(); ++i)
+    for (int d = 0; d < 3; ++d) {
+      b.min[d] = std::min(b.min[d], m.points[3 * i + d]);
+      b.max[d] = std::max(b.max[d], m.points[3 * i + d]);
+    }
+  return b;
+}
+
 SceneObject make_object(const EntrySpec& spec, TetMesh mesh, const std::string& name) {
   SceneObject o;
   o.name = name;
@@ -114,10 +124,12 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects) {
       return;
     }
     case EntrySpec::Instancing::random: {
-      // Rejection sampling of centres (and rotations) against the bounding spheres of
-      // everything placed so far; deterministic for a given seed.
-      std::vector<Sphere> placed;
-      for (const auto& o : objects) placed.push_back(bounding_sphere(o.mesh));
+      // Rejection sampling of centres (and rotations), deterministic for a given seed: a
+      // copy's bounding sphere must not reach into the axis-aligned box of anything
+      // placed so far (boxes rather than spheres for those: the bounding sphere of a
+      // wide floor plate would cover the whole region above it).
+      std::vector<AxisBox> placed;
+      for (const auto& o : objects) placed.push_back(bounding_box(o.mesh));
       const Sphere own = bounding_sphere(base);
       for (int d = 0; d < 3; ++d)
         if (spec.region.max[d] - spec.region.min[d] < 2 * own.r) {
@@ -142,8 +154,13 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects) {
           for (int d = 0; d < 3; ++d)
             c[d] = spec.region.min[d] + own.r + unit(gen) * (spec.region.max[d] - spec.region.min[d] - 2 * own.r);
           const Mat3 R = spec.random_rotate ? random_rotation(gen) : identity;
-          const bool overlaps = std::any_of(placed.begin(), placed.end(), [&](const Sphere& s) {
-            return std::hypot(s.c[0] - c[0], s.c[1] - c[1], s.c[2] - c[2]) < s.r + own.r;
+          const bool overlaps = std::any_of(placed.begin(), placed.end(), [&](const AxisBox& b) {
+            double d2 = 0;  // squared distance from c to the box
+            for (int k = 0; k < 3; ++k) {
+              const double e = std::max({b.min[k] - c[k], 0.0, c[k] - b.max[k]});
+              d2 += e * e;
+            }
+            return d2 < own.r * own.r;
           });
           if (overlaps) continue;
           // rotate about the copy's own centre, then move the centre to c
@@ -152,7 +169,7 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects) {
             const double p[3] = {base.points[3 * i] - own.c[0], base.points[3 * i + 1] - own.c[1], base.points[3 * i + 2] - own.c[2]};
             for (int r = 0; r < 3; ++r) m.points[3 * i + r] = R[3 * r] * p[0] + R[3 * r + 1] * p[1] + R[3 * r + 2] * p[2] + c[r];
           }
-          placed.push_back({c, own.r});
+          placed.push_back(bounding_box(m));
           objects.push_back(make_object(spec, std::move(m), spec.name + "[" + std::to_string(k) + "]"));
           break;
         }

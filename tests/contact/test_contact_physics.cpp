@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "contact_scenes.hpp"
 
@@ -59,6 +60,8 @@ TEST(ContactPhysics, BoxDroppedOnFloorRestsWithContactForceEqualToWeight) {
       ++samples;
     }
   }
+  std::printf("[measured] box drop: worst residual %.3g median edges, rest force / weight %.5f\n", worst_residual,
+              fz_sum / samples / (mass * g));
   EXPECT_LE(worst_residual, 0.01);
   const ObjectState box = object_state(s, 1);
   const double speed = std::hypot(box.momentum[0], box.momentum[1], box.momentum[2]) / box.mass;
@@ -185,10 +188,12 @@ TEST(ContactPhysics, BoxOnInclineSticksOrSlidesByCoulomb) {
     }
     const ObjectState end = object_state(s, 1);
     if (mu > 0.5) {
+      std::printf("[measured] incline mu=0.6: moved %.3g m in 2 s\n", end.centroid[0] - start.centroid[0]);
       EXPECT_LT(std::abs(end.centroid[0] - start.centroid[0]), 1e-3 * 0.1) << "mu = " << mu;
     } else {
       const double a = (end.momentum[0] / end.mass - v1) / (dt * (steps - k1));
       const double expect = -g * (std::sin(theta) - mu * std::cos(theta));
+      std::printf("[measured] incline mu=0.3: acceleration %.5f m/s^2, reference %.5f\n", a, expect);
       EXPECT_NEAR(a, expect, 0.02 * std::abs(expect)) << "mu = " << mu;
     }
   }
@@ -208,6 +213,8 @@ TEST(ContactPhysics, SlidingBoxStopsAfterCoulombDistance) {
   const ObjectState end = object_state(s, 1);
   EXPECT_LT(std::abs(end.momentum[0] / end.mass), 1e-3);
   const double expect = v0 * v0 / (2 * mu * g);
+  std::printf("[measured] sliding box: stopped after %.5f m, reference %.5f m\n", end.centroid[0] - start.centroid[0],
+              expect);
   EXPECT_NEAR(end.centroid[0] - start.centroid[0], expect, 0.02 * expect);
 }
 
@@ -272,9 +279,11 @@ objects:
   }
   ASSERT_GT(first, 0);
   const double duration = (last - first + 1) * dt;
+  const ObjectState a = object_state(s, 0), b = object_state(s, 1);
+  std::printf("[measured] bars: contact %.5f s (2L/c = %.5f), max energy / initial %.5f, velocities %.5f %.5f\n",
+              duration, 2 * L / c, emax / e0, a.momentum[0] / a.mass, b.momentum[0] / b.mass);
   EXPECT_NEAR(duration, 2 * L / c, 0.1 * 2 * L / c);
   EXPECT_LE(emax, 1.001 * e0);
-  const ObjectState a = object_state(s, 0), b = object_state(s, 1);
   EXPECT_NEAR(a.momentum[0] / a.mass, -v0, 0.05 * v0);
   EXPECT_NEAR(b.momentum[0] / b.mass, v0, 0.05 * v0);
 }
@@ -331,6 +340,8 @@ objects:
       ++samples;
     }
   }
+  std::printf("[measured] stack: interface loads / weight above %.5f %.5f %.5f\n",
+              load[1] / samples / (W[1] + W[2] + W[3]), load[2] / samples / (W[2] + W[3]), load[3] / samples / W[3]);
   EXPECT_NEAR(load[1] / samples, W[1] + W[2] + W[3], 0.01 * (W[1] + W[2] + W[3]));
   EXPECT_NEAR(load[2] / samples, W[2] + W[3], 0.01 * (W[2] + W[3]));
   EXPECT_NEAR(load[3] / samples, W[3], 0.01 * W[3]);

@@ -275,7 +275,9 @@ TEST(SceneParser, RandomPlacementIsSeededInsideRegionAndNonOverlapping) {
     centres.push_back(c0);
   }
   EXPECT_NE(a.objects[0].mesh.points, c.objects[0].mesh.points);
-  // Spheres of radius 0.1: centres at least 0.2 apart (up to the mesh's centroid offset).
+  // Spheres of radius 0.1: each centre is at least 0.1 from the earlier copies' boxes,
+  // which contain their spheres, so centres are at least 0.2 apart (up to the mesh's
+  // centroid offset).
   for (std::size_t i = 0; i < centres.size(); ++i)
     for (std::size_t j = 0; j < i; ++j)
       EXPECT_GT(std::hypot(centres[i][0] - centres[j][0], centres[i][1] - centres[j][1], centres[i][2] - centres[j][2]),
