@@ -61,6 +61,11 @@ public:
   /// Wall time per phase accumulated since the last call, and the steps it covers.
   PhaseTimes take_times(std::int64_t& steps);
 
+  /// Collisions already present at the initial positions (objects that start
+  /// overlapping): the first step pushes them apart at (depth / dt).
+  std::int64_t initial_overlaps() const { return initial_overlaps_; }
+  double initial_overlap_depth() const { return initial_overlap_depth_; }
+
   /// Median edge length of all tets of this rank [m].
   double median_edge() const { return median_edge_; }
 
@@ -82,6 +87,8 @@ private:
   std::int64_t timed_steps_ = 0;
   std::int64_t step_ = 0;
   double median_edge_ = 0;
+  std::int64_t initial_overlaps_ = 0;
+  double initial_overlap_depth_ = 0;
 };
 
 }  // namespace softcontact

@@ -111,6 +111,11 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
 
   // The models' rest state is the world as built (before any step).
   Simulator simulator(comm, scene);
+  if (rank == 0 && simulator.initial_overlaps() > 0)
+    std::cerr << scene.path << ": warning: " << simulator.initial_overlaps()
+              << " vertices start inside other objects (deepest " << simulator.initial_overlap_depth()
+              << " m); the first step pushes them out within one time step, which is violent for deep "
+                 "overlaps: move the objects apart\n";
 
   // Everything is validated: only now touch the file system.
   RunSummary summary;

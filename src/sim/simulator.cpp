@@ -63,6 +63,13 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene)
   if (scene.sim.integrator == IntegratorKind::implicit_euler)
     implicit_ = std::make_unique<ImplicitEuler>(scene, world_, *elastic_);
   median_edge_ = median_edge_length(world_);
+  {
+    CollisionStats st;
+    detector_.detect(world_, nullptr, residual_, st);
+    initial_overlaps_ = static_cast<std::int64_t>(residual_.size());
+    for (const Collision& c : residual_)
+      initial_overlap_depth_ = std::max(initial_overlap_depth_, std::hypot(c.depth[0], c.depth[1], c.depth[2]));
+  }
   compute_forces();
   start_integration(world_, scene.sim, f_);
 }
