@@ -18,7 +18,7 @@ constexpr int kFace[4][3] = {{1, 2, 3}, {0, 3, 2}, {0, 1, 3}, {0, 2, 1}};
 // the segment, lambda_j is proportional to (a_j - y) . n_j, so the segment leaves through
 // face j where (q - p) . n_j > 0, at t_j = ((a_j - p) . n_j) / ((q - p) . n_j): the formula
 // of the header without the division by the volume.
-TetPlanes prepare_walk(const double* x, const index_t* tets, index_t tet, const V3& p) {
+TetPlanes prepare_walk(const double* x, const index_t* tets, index_t tet, const V3& p, int skip) {
   TetPlanes s;
   s.tet = tet;
   const index_t* tv = tets + 4 * static_cast<std::size_t>(tet);
@@ -26,10 +26,16 @@ TetPlanes prepare_walk(const double* x, const index_t* tets, index_t tet, const 
   const V3 e1 = v[1] - v[0], e2 = v[2] - v[0], e3 = v[3] - v[0];
   const double vol6 = dot(e3, cross(e1, e2));
   const double l2 = std::max({norm2(e1), norm2(e2), norm2(e3)});
-  s.flat = !(std::abs(vol6) > 6 * kFlatTet * l2 * std::sqrt(l2));
+  // |vol6| > 6 kFlatTet l^3, squared (no square root).
+  s.flat = !(vol6 * vol6 > 36 * kFlatTet * kFlatTet * l2 * l2 * l2);
   if (s.flat) return s;
   const double orientation = vol6 > 0 ? 1.0 : -1.0;
   for (int j = 0; j < 4; ++j) {
+    if (j == skip) {  // the entry face: a zero normal never counts as a way out
+      s.n[j] = {0, 0, 0};
+      s.num[j] = 0;
+      continue;
+    }
     const V3& a = v[kFace[j][0]];
     s.n[j] = orientation * cross(v[kFace[j][1]] - a, v[kFace[j][2]] - a);
     s.num[j] = dot(a - p, s.n[j]);
@@ -43,15 +49,20 @@ WalkResult walk_to_surface(const double* x, const index_t* tets, const index_t* 
   const V3 dir = q - p;
   index_t cur = start.tet, came_from = -1;
   double t_in = 0;
+  TetPlanes next_planes;
   for (int step = 0; step < max_steps; ++step) {
     r.steps = step + 1;
     const index_t* nb = face_neighbour + 4 * static_cast<std::size_t>(cur);
-    const TetPlanes planes = step == 0 ? start : prepare_walk(x, tets, cur, p);
+    if (step > 0) {
+      int entry = 0;  // the face we came in by
+      while (entry < 4 && nb[entry] != came_from) ++entry;
+      next_planes = prepare_walk(x, tets, cur, p, entry < 4 ? entry : -1);
+    }
+    const TetPlanes& planes = step == 0 ? start : next_planes;
     if (planes.flat) return r;  // failed
     int face = -1;
     double t_exit = 0;
     for (int j = 0; j < 4; ++j) {
-      if (came_from >= 0 && nb[j] == came_from) continue;  // the face we came in by
       const double den = dot(dir, planes.n[j]);
       if (!(den > 0)) continue;  // not moving out through this face
       const double tj = planes.num[j] / den;

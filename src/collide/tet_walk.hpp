@@ -42,8 +42,9 @@ struct TetPlanes {
   double num[4];
 };
 
-/// `x` (n,3) positions, `tets` (m,4); `tet` a tet containing p.
-TetPlanes prepare_walk(const double* x, const index_t* tets, index_t tet, const V3& p);
+/// `x` (n,3) positions, `tets` (m,4); `tet` a tet containing p; face `skip` (0..3, or
+/// -1 for none) is left out: its normal is zero, so it is never a way out.
+TetPlanes prepare_walk(const double* x, const index_t* tets, index_t tet, const V3& p, int skip = -1);
 
 /// `x` (n,3) positions, `tets` (m,4), `face_neighbour` (m,4) as in CollisionTopology,
 /// `tri` (s,3) the World's triangles; `start` prepared for p (a tet containing p).
