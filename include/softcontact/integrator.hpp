@@ -1,7 +1,8 @@
 #pragma once
 // Unconstrained motion (step 2 of Algorithm 1, method.md) of the owned vertices under
 // forces f (n_local,3) [N]: gravity + internal forces + Rayleigh damping (forces.hpp),
-// evaluated at x^t (and v^t). Kinematic vertices (inverse mass 0) never move.
+// evaluated at x^t (and v^t). Kinematic vertices (inverse mass 0) do not move here;
+// prescribed_motion moves those that have a scene `motion`.
 //
 //  position Verlet      x~ = 2 x^t - x^(t-dt) + dt^2 f / m,   v = (x~ - x^t) / dt
 //  symplectic Euler     v  = v^t + dt f / m,                  x~ = x^t + dt v
@@ -25,6 +26,13 @@ void start_integration(World& w, const Simulation& sim, const std::vector<double
 
 /// Position Verlet or symplectic Euler (sim.integrator must not be implicit_euler).
 void unconstrained_step(World& w, const Simulation& sim, const std::vector<double>& f);
+
+/// Prescribed motion (scene key `motion`): moves the fixed owned vertices of every object
+/// with a motion by velocity x (the part of [t0, t1] inside its [start, stop]) and sets
+/// their velocity to that displacement / (t1 - t0). Called after the unconstrained step,
+/// before collision detection, so that moving anchors push and drag (friction) what they
+/// touch; fixed vertices of objects without a motion stay where they are.
+void prescribed_motion(World& w, double t0, double t1);
 
 /// External forces: gravity m g on every movable owned vertex, into f (resized, zeroed;
 /// kinematic vertices get 0, the models then add their internal forces).

@@ -4,6 +4,7 @@
 // load_scene() from a YAML file whose format docs/scene-format.md documents key by key.
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -48,6 +49,19 @@ struct AxisBox {
   }
 };
 
+/// Prescribed motion of an object's fixed vertices (all of them when the object is
+/// kinematic, else those in its `fixed` boxes): constant velocity from `start` until
+/// `stop`, standing still before and after.
+struct Motion {
+  Vec3 velocity{};                                        ///< [m/s]
+  double start = 0;                                       ///< [s]
+  double stop = std::numeric_limits<double>::infinity();  ///< [s], > start
+  bool moves() const { return velocity[0] != 0 || velocity[1] != 0 || velocity[2] != 0; }
+  /// Length of [t0, t1] that lies inside [start, stop] [s]; the displacement over the
+  /// interval is velocity times this.
+  double active_time(double t0, double t1) const;
+};
+
 /// One object (one instance of a scene entry), mesh in world coordinates.
 struct SceneObject {
   std::string name;            ///< entry name, with "[k]" appended for instance k of a multi-instance entry
@@ -57,6 +71,7 @@ struct SceneObject {
   Vec3 velocity{};             ///< initial velocity of every vertex [m/s]
   bool kinematic = false;      ///< the whole object is fixed (infinite mass)
   std::vector<AxisBox> fixed;  ///< vertices inside any of these (world coordinates) are fixed
+  Motion motion;               ///< prescribed motion of the fixed vertices (none by default)
 };
 
 struct Simulation {

@@ -29,6 +29,7 @@ struct World {
   // ---- global, identical on every rank
   std::vector<ObjectLayout> layout;     ///< per object
   gid_t global_vertices = 0, global_tets = 0, global_triangles = 0;
+  std::vector<Motion> motion;           ///< per object: prescribed motion of its fixed vertices
 
   // ---- rank-local
   std::vector<int> owned_objects;       ///< ascending object indices owned by this rank

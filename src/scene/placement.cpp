@@ -80,6 +80,7 @@ SceneObject make_object(const EntrySpec& spec, TetMesh mesh, const std::string& 
   o.velocity = spec.velocity;
   o.kinematic = spec.kinematic;
   o.fixed = spec.fixed;
+  o.motion = spec.motion;
   return o;
 }
 

@@ -27,6 +27,7 @@ struct EntrySpec {
   Vec3 velocity{};
   bool kinematic = false;
   std::vector<AxisBox> fixed;
+  Motion motion;
   Instancing instancing = Instancing::single;
   std::array<int, 3> grid_count{1, 1, 1};
   Vec3 grid_spacing{};

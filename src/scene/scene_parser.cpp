@@ -42,6 +42,11 @@ const char* to_string(IntegratorKind i) {
 
 double Material::wave_speed() const { return std::sqrt((lame_lambda() + 2 * lame_mu()) / density); }
 
+double Motion::active_time(double t0, double t1) const {
+  const double a = std::max(t0, start), b = std::min(t1, stop);
+  return b > a ? b - a : 0.0;
+}
+
 std::size_t Scene::num_vertices() const {
   std::size_t n = 0;
   for (const auto& o : objects) n += o.mesh.num_vertices();
@@ -405,7 +410,7 @@ void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const 
   int entry = 0;
   for (const auto& n : list) {
     ++entry;
-    r.check_keys(n, {"name", "material", "mesh", "primitive", "transform", "velocity", "kinematic", "fixed", "instances"},
+    r.check_keys(n, {"name", "material", "mesh", "primitive", "transform", "velocity", "kinematic", "fixed", "motion", "instances"},
                  "an object");
     EntrySpec spec;
     spec.name = n["name"] ? r.text(n["name"], "'name'") : "object" + std::to_string(entry);
@@ -472,6 +477,18 @@ void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const 
         for (const auto& b : f) one(b);
       else
         one(f);
+    }
+    if (const auto mo = n["motion"]) {
+      r.check_keys(mo, {"velocity", "start", "stop"}, "'motion' of " + where);
+      spec.motion.velocity = r.vec3(r.require(mo, "velocity", "'motion'"), "'motion.velocity' (m/s)");
+      if (mo["start"]) spec.motion.start = r.number(mo["start"], "'motion.start' (s)");
+      if (spec.motion.start < 0) r.fail(mo["start"], "'motion.start' must be >= 0 (seconds)");
+      if (mo["stop"]) {
+        spec.motion.stop = r.number(mo["stop"], "'motion.stop' (s)");
+        if (!(spec.motion.stop > spec.motion.start)) r.fail(mo["stop"], "'motion.stop' must be later than 'motion.start'");
+      }
+      if (!spec.kinematic && spec.fixed.empty())
+        r.fail(mo, "'motion' of " + where + " moves its fixed vertices, but it has none: add 'kinematic: true' or 'fixed' boxes");
     }
     if (const auto inst = n["instances"]) {
       r.check_keys(inst, {"grid", "random"}, "'instances' of " + where);

@@ -56,4 +56,23 @@ void unconstrained_step(World& w, const Simulation& sim, const std::vector<doubl
   }
 }
 
+void prescribed_motion(World& w, double t0, double t1) {
+  bool any = false;
+  for (const Motion& m : w.motion) any = any || (m.moves() && m.active_time(t0, t1) > 0);
+  if (!any) return;
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(w.n_owned);
+  const double inv_dt = 1.0 / (t1 - t0);
+#pragma omp parallel for schedule(static) if (n >= kParallelVertices)
+  for (std::ptrdiff_t i = 0; i < n; ++i) {
+    if (w.inv_mass[i] != 0) continue;
+    const Motion& m = w.motion[static_cast<std::size_t>(w.vertex_object[i])];
+    const double s = m.active_time(t0, t1);
+    for (int d = 0; d < 3; ++d) {
+      const double u = m.velocity[d] * s;
+      w.x[3 * i + d] += u;
+      w.v[3 * i + d] = u * inv_dt;
+    }
+  }
+}
+
 }  // namespace softcontact

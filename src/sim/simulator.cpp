@@ -92,6 +92,7 @@ void Simulator::step() {
   t = MPI_Wtime();
   if (implicit_) implicit_->step(world_, sim, f_);
   else unconstrained_step(world_, sim, f_);  // World::x = x~, World::x_prev = x^t
+  prescribed_motion(world_, time(), time() + sim.dt);  // moving anchors (scene `motion`)
   times_.integrate += MPI_Wtime() - t;
 
   detector_.detect(world_, world_.x_prev.data(), collisions_, collision_stats_);

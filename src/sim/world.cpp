@@ -26,10 +26,12 @@ World build_world(const Scene& scene, const std::vector<int>& object_rank, int r
   World w;
   const std::size_t no = scene.objects.size();
   w.layout.resize(no);
+  w.motion.resize(no);
   std::vector<Surface> surfaces(no);
   for (std::size_t k = 0; k < no; ++k) {
     const TetMesh& m = scene.objects[k].mesh;
     surfaces[k] = extract_surface(m);
+    w.motion[k] = scene.objects[k].motion;
     ObjectLayout& L = w.layout[k];
     L.vertex_begin = w.global_vertices;
     L.vertex_count = static_cast<gid_t>(m.num_vertices());
