@@ -8,5 +8,5 @@ bash "$root/tools/setup.sh"
 cores=$(OMP_NUM_THREADS= nproc)   # nproc obeys OMP_NUM_THREADS, which env.sh sets
 source "$root/tools/env.sh"
 cd "${BUILD_DIR:-$root/build}"
-if [ $# -eq 0 ]; then set -- -LE long; fi
+if [ $# -eq 0 ]; then set -- -LE 'long|render'; fi
 exec ctest --output-on-failure -j "$cores" "$@"

@@ -28,6 +28,14 @@
 // stiction removes it exactly where the normal response removes penetration exactly,
 // and friction sums to zero too. Coulomb's cone becomes |e_i| <= mu_s |d_i| (stick),
 // else e_i is scaled to mu_k |d_i| (slide); contact_solver.cpp derives this.
+//
+// Static friction is anchored: a sticking point keeps the place on the other body where
+// it first stuck (barycentric coordinates in a surface triangle of that body), and e_i
+// is measured from that anchor rather than from the start of the step. Small slips that
+// the decoupled per-collision forces leave behind (and steps in which a resting point is
+// not detected) are thereby pulled back instead of adding up to creep. A point that
+// slides, or that has had no contact with that body for more than kAnchorGrace steps,
+// takes a new anchor where it ends the step.
 #include <cstdint>
 #include <vector>
 
@@ -58,6 +66,9 @@ public:
   /// ranks.
   void respond(World& world, const std::vector<Collision>& collisions, double dt, ContactStats& stats);
 
+  /// Steps without contact after which a point forgets its static-friction anchor.
+  static constexpr std::int64_t kAnchorGrace = 2;
+
   /// Total contact force (normal + friction) per local vertex, (n_local,3) [N], of the
   /// last respond(); zero for vertices without contact.
   const std::vector<double>& force();
@@ -86,9 +97,19 @@ private:
     double aT[3];
     double scale;            // friction: multiple of the tangential vector applied
     double e[3];             // friction: tangential vector
+    bool keep_anchor;        // friction: stuck to a valid anchor, which stays
+  };
+  // Static-friction anchor of a point (per local vertex): where on the other body it
+  // sticks. Local vertex indices (the World does not renumber during a run).
+  struct Anchor {
+    std::int64_t step = -1;  // last step with a contact to this anchor's body
+    std::int32_t object = -1;
+    index_t tri[3] = {-1, -1, -1};
+    double bary[3] = {0, 0, 0};
   };
   std::int64_t normal_forces(const std::vector<Collision>& c, double dt);
-  void friction_forces(const std::vector<Collision>& c, double dt, ContactStats& stats);
+  void friction_forces(const World& w, const std::vector<Collision>& c, double dt, ContactStats& stats);
+  void update_anchors(const World& w, const std::vector<Collision>& c);
   void materialize();
 
   std::vector<std::int32_t> object_material_;             // material of each object
@@ -97,6 +118,8 @@ private:
   std::vector<index_t> vertex_of_;                         // per slot
   std::vector<Slot> slots_;
   std::vector<Local> local_;
+  std::vector<Anchor> anchor_;                             // n_local
+  std::int64_t step_ = 0;                                  // respond() calls so far
   std::vector<double> force_, penetration_;                // n_local x 3, filled on demand
   std::vector<index_t> materialized_;                      // entries of force_ that are set
   bool materialized_current_ = true;

@@ -93,7 +93,7 @@ std::int64_t ContactSolver::normal_forces(const std::vector<Collision>& col, dou
   return fixed_pairs;
 }
 
-void ContactSolver::friction_forces(const std::vector<Collision>& col, double dt, ContactStats& stats) {
+void ContactSolver::friction_forces(const World& w, const std::vector<Collision>& col, double dt, ContactStats& stats) {
   // Coulomb friction, decoupled from the normal response (the paper's Sec. 3.4) and
   // computed with the same closed form. After the normal correction, the relative
   // tangential motion of i against the point of T_i it touches within this step is
@@ -105,6 +105,16 @@ void ContactSolver::friction_forces(const std::vector<Collision>& col, double dt
   // |f_t| / |f_n| = |e_i| / |d_i| per collision, which makes Coulomb's law a clamp:
   //   stick  if |e_i| <= mu_s |d_i|,   else slide with e_i scaled to mu_k |d_i|.
   // The pair sums to zero like the normal one.
+  //
+  // Anchored stiction: when i already sticks to B, u dt is instead the tangential offset
+  // of i from its anchor a on B (contact.hpp), both after the normal correction:
+  //   u dt = x_i - sum_k b_k x_(a_k),
+  // which equals the in-step motion when i started the step on its anchor, and otherwise
+  // also undoes the slip left over from earlier steps (within the same cone).
+  auto corrected = [&](index_t v, int d) {
+    const std::int32_t sv = slot_of_[static_cast<std::size_t>(v)];
+    return sv >= 0 ? w.x_prev[3 * v + d] + slots_[sv].dx[d] : w.x[3 * v + d];
+  };
   const std::ptrdiff_t nc = static_cast<std::ptrdiff_t>(col.size());
   std::int64_t sticking = 0, sliding = 0;
 #pragma omp parallel for schedule(static) reduction(+ : sticking, sliding)
@@ -113,22 +123,32 @@ void ContactSolver::friction_forces(const std::vector<Collision>& col, double dt
     Local& L = local_[q];
     L.scale = 0;
     L.e[0] = L.e[1] = L.e[2] = 0;
+    L.keep_anchor = false;
     const double dn = norm3(c.depth.data());
     if (dn == 0 || L.ai == 0) continue;
     const Friction& mu = friction_[object_material_[c.object]][object_material_[c.other_object]];
     if (mu.mu_static == 0 && mu.mu_kinetic == 0) continue;
     const double n[3] = {c.depth[0] / dn, c.depth[1] / dn, c.depth[2] / dn};
     double u[3];
-    for (int d = 0; d < 3; ++d) {
-      u[d] = slots_[L.slot[0]].dx[d];
-      for (int k = 0; k < 3; ++k) u[d] -= c.weight[k] * slots_[L.slot[1 + k]].dx[d];
+    const Anchor& an = anchor_[static_cast<std::size_t>(c.point)];
+    const bool anchored = an.object == c.other_object && an.step >= step_ - kAnchorGrace;
+    if (anchored) {
+      for (int d = 0; d < 3; ++d) {
+        u[d] = corrected(c.point, d);
+        for (int k = 0; k < 3; ++k) u[d] -= an.bary[k] * corrected(an.tri[k], d);
+      }
+    } else {
+      for (int d = 0; d < 3; ++d) {
+        u[d] = slots_[L.slot[0]].dx[d];
+        for (int k = 0; k < 3; ++k) u[d] -= c.weight[k] * slots_[L.slot[1 + k]].dx[d];
+      }
     }
     const double un = u[0] * n[0] + u[1] * n[1] + u[2] * n[2];
     for (int d = 0; d < 3; ++d) L.e[d] = -(u[d] - un * n[d]);
     const double en = norm3(L.e);
-    if (en == 0) continue;
     if (en <= mu.mu_static * dn) {
-      L.scale = 1;
+      L.scale = en == 0 ? 0 : 1;
+      L.keep_anchor = anchored;
       ++sticking;
     } else {
       L.scale = mu.mu_kinetic * dn / en;
@@ -153,6 +173,8 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
   materialized_current_ = false;
   stats = ContactStats{};
   stats.collisions = static_cast<std::int64_t>(col.size());
+  ++step_;
+  if (anchor_.size() != w.n_local()) anchor_.assign(w.n_local(), Anchor{});
 
   // Slots in order of first appearance in the sorted collision list: a fixed order.
   local_.resize(col.size());
@@ -179,7 +201,7 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
   const double dt2 = dt * dt;
   for (Slot& s : slots_)
     for (int d = 0; d < 3; ++d) s.dx[d] += dt2 * s.inv_mass * s.normal[d];
-  friction_forces(col, dt, stats);
+  friction_forces(w, col, dt, stats);
 
   double sum[3] = {0, 0, 0}, abs_sum = 0;
   for (std::size_t k = 0; k < slots_.size(); ++k) {
@@ -199,6 +221,43 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
   }
   for (const Collision& c : col) stats.max_depth = std::max(stats.max_depth, norm3(c.depth.data()));
   stats.force_balance = abs_sum > 0 ? norm3(sum) / abs_sum : 0;
+  update_anchors(w, col);
+}
+
+// After the step: points that stuck to a valid anchor keep it; every other colliding
+// point takes a new anchor, the foot of its final position on the final plane of T_i
+// (barycentric coordinates, not clamped: the foot may lie just outside T_i). In
+// collision order, so a point with records against two bodies ends with the later one.
+void ContactSolver::update_anchors(const World& w, const std::vector<Collision>& col) {
+  for (std::size_t q = 0; q < col.size(); ++q) {
+    const Collision& c = col[q];
+    Anchor& an = anchor_[static_cast<std::size_t>(c.point)];
+    if (local_[q].keep_anchor) {
+      an.step = step_;
+      continue;
+    }
+    const double* a = &w.x[3 * c.triangle[0]];
+    const double* b = &w.x[3 * c.triangle[1]];
+    const double* e = &w.x[3 * c.triangle[2]];
+    const double* p = &w.x[3 * c.point];
+    const double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, ae[3] = {e[0] - a[0], e[1] - a[1], e[2] - a[2]},
+                 ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
+    const double d00 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2], d01 = ab[0] * ae[0] + ab[1] * ae[1] + ab[2] * ae[2],
+                 d11 = ae[0] * ae[0] + ae[1] * ae[1] + ae[2] * ae[2], d20 = ap[0] * ab[0] + ap[1] * ab[1] + ap[2] * ab[2],
+                 d21 = ap[0] * ae[0] + ap[1] * ae[1] + ap[2] * ae[2];
+    const double den = d00 * d11 - d01 * d01;
+    an.step = step_;
+    an.object = c.other_object;
+    for (int k = 0; k < 3; ++k) an.tri[k] = c.triangle[k];
+    if (den > 0) {
+      const double v = (d11 * d20 - d01 * d21) / den, u = (d00 * d21 - d01 * d20) / den;
+      an.bary[0] = 1 - v - u;
+      an.bary[1] = v;
+      an.bary[2] = u;
+    } else {  // a degenerate triangle: the detector's weights
+      for (int k = 0; k < 3; ++k) an.bary[k] = c.weight[k];
+    }
+  }
 }
 
 void ContactSolver::materialize() {

@@ -199,6 +199,49 @@ TEST(ContactSolver, FrictionSticksBelowTheConeAndSlidesAbove) {
   }
 }
 
+// Anchored stiction (contact.hpp): a point that stuck at the origin of a fixed triangle
+// and starts a later step 4 um off it (slip left by earlier steps, no motion within the
+// step) is pulled back exactly onto its anchor while the offset is inside the cone
+// (4 um <= mu_s |d| = 6 um); a larger offset (10 um) slides back by mu_k |d| = 4 um and
+// re-anchors where it ends; after more than kAnchorGrace steps without contact the
+// anchor is forgotten and an offset stays. Positions to 1e-16 m (1e-11 of the offsets:
+// rounding of the dt^2 scalings).
+TEST(ContactSolver, StictionPullsLeftoverSlipBackToTheAnchor) {
+  const double m = 2.0, depth = 1e-5;
+  World w = toy_world({m, 1, 1, 1}, {false, true, true, true});
+  const double tri[9] = {-1, -1, 0, 1, -1, 0, 0, 1, 0};
+  for (int k = 0; k < 9; ++k) w.x[3 + k] = w.x_prev[3 + k] = tri[k];
+  ContactSolver solver(two_materials(0.6, 0.4), w);
+  ContactStats st;
+  const Collision c = make(0, {1, 2, 3}, {0.25, 0.25, 0.5}, {0, 0, depth});
+  // Starts the step at (x0, 0, 0) and arrives at (x0, 0, -depth): pure penetration.
+  auto step = [&](double x0, bool contact) {
+    w.x_prev[0] = x0;
+    w.x_prev[1] = w.x_prev[2] = 0;
+    w.x[0] = x0;
+    w.x[1] = 0;
+    w.x[2] = contact ? -depth : 0;
+    solver.respond(w, contact ? std::vector<Collision>{c} : std::vector<Collision>{}, dt, st);
+  };
+  step(0.0, true);  // sticks at the origin: the anchor
+  EXPECT_EQ(st.sticking, 1);
+  EXPECT_EQ(w.x[0], 0.0);
+  step(4e-6, true);  // leftover slip inside the cone: back onto the anchor
+  EXPECT_EQ(st.sticking, 1);
+  EXPECT_NEAR(w.x[0], 0.0, 1e-16);
+  EXPECT_NEAR(w.x[2], 0.0, 1e-16);
+  step(1e-5, true);  // outside the cone: slides back by mu_k |d| only
+  EXPECT_EQ(st.sliding, 1);
+  EXPECT_NEAR(w.x[0], 1e-5 - 0.4 * depth, 1e-16);
+  const double slid_to = w.x[0];
+  step(slid_to, true);  // the new anchor is where it slid to: nothing to undo
+  EXPECT_NEAR(w.x[0], slid_to, 1e-16);
+  for (int k = 0; k <= ContactSolver::kAnchorGrace; ++k) step(slid_to, false);
+  step(slid_to + 4e-6, true);  // anchor forgotten: the offset stays
+  EXPECT_NEAR(w.x[0], slid_to + 4e-6, 1e-16);
+  EXPECT_LT(st.force_balance, 1e-15);
+}
+
 // Random contact sets: 1 and 2 threads give bitwise the same positions and forces, and
 // the forces always sum to zero.
 TEST(ContactSolver, ThreadCountDoesNotChangeResults) {
