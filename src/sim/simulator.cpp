@@ -66,9 +66,14 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene)
   {
     CollisionStats st;
     detector_.detect(world_, nullptr, residual_, st);
-    initial_overlaps_ = static_cast<std::int64_t>(residual_.size());
-    for (const Collision& c : residual_)
+    // Overlaps between two fixed sides (walls built flush against a floor) exert no
+    // force and move nothing: not worth a warning.
+    auto movable = [&](index_t v) { return world_.inv_mass[static_cast<std::size_t>(v)] != 0; };
+    for (const Collision& c : residual_) {
+      if (!movable(c.point) && !movable(c.triangle[0]) && !movable(c.triangle[1]) && !movable(c.triangle[2])) continue;
+      ++initial_overlaps_;
       initial_overlap_depth_ = std::max(initial_overlap_depth_, std::hypot(c.depth[0], c.depth[1], c.depth[2]));
+    }
   }
   compute_forces();
   start_integration(world_, scene.sim, f_);
