@@ -1,5 +1,5 @@
 #pragma once
-// The command line: softcontact {run,check,info} ... Returns the process exit status:
+// The command line: softcontact {run,check,bench,info} ... Returns the process exit status:
 // 0 success, 1 failure of the run itself, 2 bad input (scene, mesh, command line).
 #include <mpi.h>
 

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "softcontact/bench.hpp"
 #include "softcontact/config.hpp"
 #include "softcontact/error.hpp"
 #include "softcontact/run.hpp"
@@ -41,6 +42,7 @@ const char* kMainHelp =
     "commands:\n"
     "  run SCENE.yaml     run a scene, write HDF5/XDMF frames and a diagnostics CSV\n"
     "  check SCENE.yaml   validate a scene and print a summary without running\n"
+    "  bench SCENE.yaml   time a scene per step and phase, without output (docs/benchmarks.md)\n"
     "  info               version and the libraries this build uses\n"
     "\n"
     "options:\n"
@@ -71,6 +73,22 @@ const char* kCheckHelp =
     "Reads and validates the scene and every mesh it uses, then prints a summary: objects,\n"
     "vertices, tets, mass, stable time step, steps and frames. Nothing is written.\n"
     "Exit status 2 with a message naming the file and line when something is wrong.\n";
+
+const char* kBenchHelp =
+    "usage: mpirun -n RANKS softcontact bench SCENE.yaml [options]\n"
+    "\n"
+    "Runs the scene for a fixed number of steps without writing frames and prints, per\n"
+    "phase of the step, the median and mean wall time per step, the colliding points per\n"
+    "step, steps per second and the peak memory per rank. The scene's end_time or steps\n"
+    "are ignored. OMP_NUM_THREADS sets the threads; on a shared machine also set\n"
+    "OMP_WAIT_POLICY=passive (docs/benchmarks.md, \"Scenes\").\n"
+    "\n"
+    "  --steps N          timed steps (default 100)\n"
+    "  --warmup K         untimed steps before them (default 0)\n"
+    "  --csv FILE         append one row for this run to FILE (header when FILE is new)\n"
+    "  --per-step FILE    write one row per timed step: colliding points and phase times\n"
+    "  --quiet            no progress lines\n"
+    "  -h, --help         this help\n";
 
 const char* kInfoHelp = "usage: softcontact info\n\nPrints the version and the libraries of this build.\n";
 
@@ -148,6 +166,18 @@ std::int64_t parse_count(const std::string& opt, const std::string& v, const cha
   return n;
 }
 
+std::int64_t parse_nonnegative(const std::string& opt, const std::string& v, const char* command) {
+  std::size_t pos = 0;
+  long long n = -1;
+  try {
+    n = std::stoll(v, &pos);
+  } catch (const std::exception&) {
+    pos = 0;
+  }
+  if (pos != v.size() || v.empty() || n < 0) usage_error(opt + " expects a non-negative integer, got '" + v + "'", command);
+  return n;
+}
+
 double parse_seconds(const std::string& opt, const std::string& v, const char* command) {
   std::size_t pos = 0;
   double x = 0;
@@ -209,7 +239,7 @@ void print_summary(const Scene& s, std::ostream& out) {
   out << "  total: " << s.num_vertices() << " vertices, " << s.num_tets() << " tets, " << tris
       << " surface triangles, mass " << human(total_mass, "kg") << "\n";
   const double stable = stable_time_step(s);
-  out << "  stable explicit time step " << human(stable, "s") << " (smallest element height / wave speed)\n";
+  out << "  stable explicit time step " << human(stable, "s") << " (2 / highest element frequency, docs/models.md)\n";
   out << "  time step " << human(sim.dt, "s") << (sim.dt_auto ? " (auto, safety " : " (given") ;
   if (sim.dt_auto) out << sim.dt_safety;
   out << "), integrator " << to_string(sim.integrator) << "\n";
@@ -270,6 +300,28 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
   return 0;
 }
 
+int cmd_bench(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) {
+  BenchOptions opt;
+  if (a.values.count("--steps")) opt.steps = parse_count("--steps", a.values.at("--steps"), "bench");
+  if (a.values.count("--warmup")) opt.warmup = parse_nonnegative("--warmup", a.values.at("--warmup"), "bench");
+  opt.quiet = has(a, "--quiet");
+  const std::string csv = a.values.count("--csv") ? a.values.at("--csv") : "";
+  const std::string per_step = a.values.count("--per-step") ? a.values.at("--per-step") : "";
+  if (a.values.count("--csv") && csv.empty()) usage_error("--csv expects a file name", "bench");
+  if (a.values.count("--per-step") && per_step.empty()) usage_error("--per-step expects a file name", "bench");
+  const Scene s = load_scene(scene_argument(a, "bench"));
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  if (rank == 0) print_warnings(s, err);
+  BenchFiles files(comm, csv, per_step);
+  const BenchResult r = run_bench(comm, s, opt, err);
+  if (rank == 0) {
+    print_bench_table(out, r);
+    files.write(r);
+  }
+  return 0;
+}
+
 int cmd_info(std::ostream& out) {
   int mpi_len = 0;
   char mpi_version[MPI_MAX_LIBRARY_VERSION_STRING];
@@ -313,12 +365,16 @@ int dispatch(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out
     const Args a = parse_args(argc, argv, 2, "check", {}, {});
     return a.help ? say(kCheckHelp) : cmd_check(a, comm, out, err);
   }
+  if (cmd == "bench") {
+    const Args a = parse_args(argc, argv, 2, "bench", {"--steps", "--warmup", "--csv", "--per-step"}, {"--quiet"});
+    return a.help ? say(kBenchHelp) : cmd_bench(a, comm, out, err);
+  }
   if (cmd == "info") {
     const Args a = parse_args(argc, argv, 2, "info", {}, {});
     return a.help ? say(kInfoHelp) : (rank == 0 ? cmd_info(out) : 0);
   }
   std::string msg = "unknown command '" + cmd + "'";
-  const std::string guess = detail::nearest(cmd, {"run", "check", "info", "help"});
+  const std::string guess = detail::nearest(cmd, {"run", "check", "bench", "info", "help"});
   if (!guess.empty()) msg += " (did you mean '" + guess + "'?)";
   usage_error(msg, nullptr);
 }

@@ -53,6 +53,25 @@ expect 0 'done: 7 steps' -- "$exe" run "$data/scenes/small.yaml" --output run1 -
 [ "$(grep -c '<Grid Name="frame_' run1/frames.xdmf)" = 4 ] && ok || bad "expected frames 0,3,6,7 after --overwrite"
 expect 0 't = ' -- "$exe" run "$data/scenes/small.yaml" --output run2 --end-time 0.001
 
+# bench: the table on stdout, one CSV row per run (appended, one header), one per-step
+# row per timed step (numbered after the warm-up), no output directory; bad options exit 2
+expect 0 '--per-step FILE' -- "$exe" bench --help
+expect 0 'phase +median \[ms\] +mean \[ms\]' -- "$exe" bench "$data/scenes/small.yaml" --steps 3 --quiet
+expect 0 'contact response' -- "$exe" bench "$data/scenes/small.yaml" --steps 3 --warmup 2 --csv b.csv --per-step steps.csv --quiet
+expect 0 '3 timed steps' -- "$exe" bench "$data/scenes/small.yaml" --steps 3 --csv b.csv --quiet
+[ "$(wc -l < b.csv)" = 3 ] && ok || bad "expected a header and 2 rows in b.csv"
+[ "$(head -1 b.csv | cut -d, -f1-4)" = "timestamp,scene,path,ranks" ] && ok || bad "b.csv header: $(head -1 b.csv)"
+[ "$(wc -l < steps.csv)" = 4 ] && ok || bad "expected a header and 3 rows in steps.csv"
+[ "$(sed -n 2p steps.csv | cut -d, -f1)" = 3 ] && ok || bad "the first timed step after 2 warm-up steps should be step 3"
+[ ! -e output ] && ok || bad "bench wrote an output directory"
+expect 2 "--steps expects a positive integer, got '0'" -- "$exe" bench "$data/scenes/small.yaml" --steps 0
+expect 2 "--warmup expects a non-negative integer, got '-1'" -- "$exe" bench "$data/scenes/small.yaml" --warmup -1
+expect 2 "unknown option '--step' \(did you mean '--steps'\?\)" -- "$exe" bench "$data/scenes/small.yaml" --step 3
+expect 2 "'bench' needs a scene file" -- "$exe" bench --steps 3
+expect 2 "missing.yaml: scene file does not exist" -- "$exe" bench missing.yaml
+expect 2 "--csv steps.csv: the file exists with other columns" -- "$exe" bench "$data/scenes/small.yaml" --csv steps.csv
+expect 0 '2 rank\(s\) x 1 thread' -- "$mpiexec" --oversubscribe -n 2 "$exe" bench "$data/scenes/small.yaml" --steps 2 --quiet
+
 # under MPI: two ranks, the same positions as one rank (bitwise: same bytes in the
 # last frame), and bad input still exits 2 with one message
 expect 0 'on 2 rank' -- "$mpiexec" --oversubscribe -n 2 "$exe" run "$data/scenes/small.yaml" --output mpi2 --quiet

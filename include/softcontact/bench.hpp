@@ -1,0 +1,106 @@
+#pragma once
+// The scene benchmark (`softcontact bench`): a scene run for a fixed number of steps with
+// no frame output, timed per step and per phase of Algorithm 1 (PhaseTimes), with the
+// colliding points of every step. Summaries are medians and means over the timed steps
+// (the machines it runs on are shared and noisy: medians are the figures to quote).
+//
+// Timings are wall-clock seconds, the largest over the ranks for each step and phase (a
+// step is as slow as its slowest rank); collision counts are summed over the ranks.
+// Nothing here changes the simulation: it is Simulator::step() in a loop.
+#include <mpi.h>
+
+#include <cstdint>
+#include <fstream>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include "softcontact/diagnostics.hpp"
+#include "softcontact/scene.hpp"
+
+namespace softcontact {
+
+struct BenchOptions {
+  std::int64_t steps = 100;  ///< timed steps (> 0)
+  std::int64_t warmup = 0;   ///< untimed steps before them (>= 0)
+  bool quiet = false;        ///< no progress lines
+};
+
+/// One timed step.
+struct BenchStep {
+  std::int64_t step = 0;         ///< 1-based index of the step since t = 0 (warm-up included)
+  double time = 0;               ///< simulated time after the step [s]
+  std::int64_t collisions = 0;   ///< colliding points (CollisionStats::colliding_points), all ranks
+  std::int64_t records = 0;      ///< collision records (a point inside two bodies counts twice)
+  PhaseTimes seconds;            ///< per phase [s], max over ranks
+  double wall = 0;               ///< the whole Simulator::step() [s], max over ranks
+};
+
+/// Median and mean over the timed steps of one quantity.
+struct Spread {
+  double median = 0, mean = 0;
+};
+
+struct BenchResult {
+  std::string scene;   ///< the scene file's stem ("tori200")
+  std::string path;    ///< the scene file
+  int ranks = 1, threads = 1;
+  std::size_t objects = 0, vertices = 0, tets = 0;
+  double dt = 0;
+  std::int64_t warmup = 0;
+  std::vector<BenchStep> steps;  ///< the timed steps, identical on every rank
+  double setup_seconds = 0;      ///< building the Simulator (max over ranks)
+  double loop_seconds = 0;       ///< wall time of the timed steps, barrier to barrier
+  double rss_max_mib = 0, rss_mean_mib = 0;  ///< peak resident memory per rank (ru_maxrss)
+  std::string omp_wait_policy;   ///< the OMP_WAIT_POLICY environment variable, or "default"
+
+  // Summaries of `steps` (filled by run_bench; summarise() recomputes them).
+  Spread collisions;
+  std::int64_t collisions_max = 0;
+  Spread forces, integrate, detect, depth, contact, comm, output, phases, total;
+
+  double steps_per_second() const {
+    return loop_seconds > 0 ? static_cast<double>(steps.size()) / loop_seconds : 0.0;
+  }
+  void summarise();
+};
+
+/// Median of `v` (the mean of the two middle values for an even count; 0 when empty).
+double median_of(std::vector<double> v);
+/// Arithmetic mean of `v` (0 when empty).
+double mean_of(const std::vector<double>& v);
+
+/// Builds a Simulator for `scene` and runs opt.warmup + opt.steps steps. Collective over
+/// `comm`; progress lines (at most one per 10 s) go to `log` on rank 0 unless opt.quiet.
+BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt, std::ostream& log);
+
+/// The human-readable table.
+void print_bench_table(std::ostream& out, const BenchResult& r);
+
+/// One row per run; bench_csv_header() is its first line (docs/benchmarks.md lists the
+/// columns).
+std::string bench_csv_header();
+std::string bench_csv_row(const BenchResult& r);
+
+/// One row per timed step: step,time,collisions,records, the phases in ms, total_ms.
+std::string per_step_csv_header();
+void write_per_step_csv(std::ostream& out, const BenchResult& r);
+
+/// The files of --csv (appended to; its header is written when the file is new or empty)
+/// and --per-step (replaced), either may be empty. Opened by rank 0 in the constructor,
+/// before the run, so that a bad path or a CSV with other columns is bad input (InputError,
+/// on every rank) rather than a failure after minutes of stepping. Collective.
+class BenchFiles {
+public:
+  BenchFiles(MPI_Comm comm, const std::string& csv, const std::string& per_step);
+  /// Writes the row and the per-step rows (rank 0; a no-op elsewhere). Throws
+  /// RuntimeFailure when a write fails.
+  void write(const BenchResult& r);
+
+private:
+  std::string csv_path_, per_step_path_;
+  std::ofstream csv_, per_step_;
+  bool header_needed_ = false;
+};
+
+}  // namespace softcontact
