@@ -1,5 +1,7 @@
 #include "softcontact/simulator.hpp"
 
+#include <petscsys.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -81,6 +83,48 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene)
 
 Simulator::~Simulator() = default;
 
+namespace {
+// The phases of a step as PETSc log events, so that PETSC_OPTIONS=-log_view reports them
+// beside PETSc's own (KSPSolve of implicit Euler). Registered once, on first use after
+// PetscInitialize; without PETSc (not initialised) nothing is logged.
+struct PhaseEvents {
+  bool on = false;
+  PetscLogEvent forces = 0, integrate = 0, collide = 0, contact = 0;
+};
+
+const PhaseEvents& phase_events() {
+  static const PhaseEvents ev = [] {
+    PhaseEvents e;
+    PetscBool init = PETSC_FALSE;
+    if (PetscInitialized(&init) != 0 || !init) return e;
+    PetscClassId cls = 0;
+    e.on = PetscClassIdRegister("softcontact", &cls) == 0 && PetscLogEventRegister("scForces", cls, &e.forces) == 0 &&
+           PetscLogEventRegister("scIntegrate", cls, &e.integrate) == 0 &&
+           PetscLogEventRegister("scDetectDepth", cls, &e.collide) == 0 &&
+           PetscLogEventRegister("scContact", cls, &e.contact) == 0;
+    return e;
+  }();
+  return ev;
+}
+
+// Begins a phase's event on construction and ends it on destruction.
+class PhaseLog {
+public:
+  PhaseLog(const PhaseEvents& ev, PetscLogEvent e) : on_(ev.on), e_(e) {
+    if (on_) (void)PetscLogEventBegin(e_, nullptr, nullptr, nullptr, nullptr);
+  }
+  ~PhaseLog() {
+    if (on_) (void)PetscLogEventEnd(e_, nullptr, nullptr, nullptr, nullptr);
+  }
+  PhaseLog(const PhaseLog&) = delete;
+  PhaseLog& operator=(const PhaseLog&) = delete;
+
+private:
+  bool on_;
+  PetscLogEvent e_;
+};
+}  // namespace
+
 void Simulator::compute_forces() {
   // Step 1: p = gravity + internal forces + Rayleigh damping at (x^t, v^t); implicit
   // Euler treats damping inside its linear system instead.
@@ -90,22 +134,35 @@ void Simulator::compute_forces() {
 
 void Simulator::step() {
   const Simulation& sim = scene_.sim;
+  const PhaseEvents& ev = phase_events();
   double t = MPI_Wtime();
-  compute_forces();
+  {
+    PhaseLog log(ev, ev.forces);
+    compute_forces();
+  }
   times_.forces += MPI_Wtime() - t;
 
   t = MPI_Wtime();
-  if (implicit_) implicit_->step(world_, sim, f_);
-  else unconstrained_step(world_, sim, f_);  // World::x = x~, World::x_prev = x^t
-  prescribed_motion(world_, time(), time() + sim.dt);  // moving anchors (scene `motion`)
+  {
+    PhaseLog log(ev, ev.integrate);
+    if (implicit_) implicit_->step(world_, sim, f_);
+    else unconstrained_step(world_, sim, f_);  // World::x = x~, World::x_prev = x^t
+    prescribed_motion(world_, time(), time() + sim.dt);  // moving anchors (scene `motion`)
+  }
   times_.integrate += MPI_Wtime() - t;
 
-  detector_.detect(world_, world_.x_prev.data(), collisions_, collision_stats_);
+  {
+    PhaseLog log(ev, ev.collide);
+    detector_.detect(world_, world_.x_prev.data(), collisions_, collision_stats_);
+  }
   times_.detect += collision_stats_.detection_seconds;
   times_.depth += collision_stats_.depth_seconds;
 
   t = MPI_Wtime();
-  contact_.respond(world_, collisions_, sim.dt, contact_stats_);
+  {
+    PhaseLog log(ev, ev.contact);
+    contact_.respond(world_, collisions_, sim.dt, contact_stats_);
+  }
   times_.contact += MPI_Wtime() - t;
 
   ++step_;

@@ -72,6 +72,11 @@ expect 2 "missing.yaml: scene file does not exist" -- "$exe" bench missing.yaml
 expect 2 "--csv steps.csv: the file exists with other columns" -- "$exe" bench "$data/scenes/small.yaml" --csv steps.csv
 expect 0 '2 rank\(s\) x 1 thread' -- "$mpiexec" --oversubscribe -n 2 "$exe" bench "$data/scenes/small.yaml" --steps 2 --quiet
 
+# PETSc's -log_view (through PETSC_OPTIONS) reports the step's phases as events, one
+# call per step: 3 steps, 3 calls of scContact
+expect 0 'scContact +3 ' -- env PETSC_OPTIONS=-log_view "$exe" bench "$data/scenes/small.yaml" --steps 3 --quiet
+expect 0 'scDetectDepth +3 ' -- env PETSC_OPTIONS=-log_view "$exe" bench "$data/scenes/small.yaml" --steps 3 --quiet
+
 # under MPI: two ranks, the same positions as one rank (bitwise: same bytes in the
 # last frame), and bad input still exits 2 with one message
 expect 0 'on 2 rank' -- "$mpiexec" --oversubscribe -n 2 "$exe" run "$data/scenes/small.yaml" --output mpi2 --quiet
