@@ -66,12 +66,15 @@ struct CollisionSettings {
 /// surface vertices, object thickness. detect() reuses its buffers between steps.
 class CollisionDetector {
 public:
-  CollisionDetector(const World& world, const CollisionSettings& settings);
+  /// `rest_x` (n_local,3): the positions the surface hierarchies are built from (the
+  /// scene's initial positions, so that a detector rebuilt during a run, after a ghost
+  /// change or a migration, searches exactly like the first); null: world.x.
+  CollisionDetector(const World& world, const CollisionSettings& settings, const double* rest_x = nullptr);
   ~CollisionDetector();
   CollisionDetector(CollisionDetector&&) noexcept;
   CollisionDetector& operator=(CollisionDetector&&) noexcept;
 
-  /// Finds every vertex strictly inside a tet of another object at the positions
+  /// Finds every owned vertex strictly inside a tet of another object at the positions
   /// `world.x` (x~), computes the penetration vectors, and writes the records to `out`
   /// sorted by (point_gid, triangle_gid). `x_prev_step` (n_local,3) are the positions
   /// x^t at the start of the step, used for the tunnelling diagnostic only (may be null).

@@ -45,12 +45,26 @@
 
 namespace softcontact {
 
+class Halo;
+
+/// Static-friction anchor of a point: where on the other body it sticks (barycentric
+/// coordinates in a surface triangle of that body, by global vertex ids, so that it
+/// survives ghost rebuilds, migration and restarts).
+struct StictionAnchor {
+  std::int64_t step = -1;  ///< last step (respond() call) with a contact to this anchor's body
+  std::int32_t object = -1;
+  gid_t tri[3] = {-1, -1, -1};
+  double bary[3] = {0, 0, 0};
+};
+
 struct ContactStats {
   std::int64_t collisions = 0;      ///< records processed
   std::int64_t fixed_pairs = 0;     ///< collisions between two kinematic sides (no force)
   std::int64_t sticking = 0;        ///< friction: collisions in static friction
   std::int64_t sliding = 0;         ///< friction: collisions in kinetic friction
-  double force_balance = 0;         ///< |sum_v F_v| / sum_v |F_v| over all vertices (0 without contact)
+  double force_balance = 0;         ///< |sum_v F_v| / sum_v |F_v| over this rank's owned vertices (0 without contact)
+  double force_sum[3] = {0, 0, 0};  ///< sum_v F_v over owned vertices (reduce over ranks for the balance)
+  double force_abs_sum = 0;         ///< sum_v |F_v| over owned vertices
   double max_depth = 0;             ///< largest |d_i| [m]
 };
 
@@ -63,8 +77,21 @@ public:
   /// world.x and world.v of movable owned vertices (x_prev, holding x^t, is unchanged).
   /// `collisions` must be sorted by (point_gid, triangle_gid), as CollisionDetector
   /// produces them: every per-vertex sum follows that order, independent of threads and
-  /// ranks.
-  void respond(World& world, const std::vector<Collision>& collisions, double dt, ContactStats& stats);
+  /// ranks. With several ranks, `collisions` are this rank's (owned points) and `halo`
+  /// carries the column sums, local forces and corrected motions of ghost vertices to
+  /// and from their owners (collective over the halo's neighbours); ghost rows of
+  /// world.x are not changed (Halo::update refreshes them afterwards).
+  void respond(World& world, const std::vector<Collision>& collisions, double dt, ContactStats& stats,
+               Halo* halo = nullptr);
+
+  /// After respond() and after the ghost positions are refreshed: new anchors from the
+  /// final positions (respond() calls it itself when there is no halo).
+  void update_anchors(const World& world, const std::vector<Collision>& collisions);
+
+  /// Anchors per owned vertex (n_owned), for migration and checkpoints.
+  std::vector<StictionAnchor>& anchors() { return anchor_; }
+  std::int64_t anchor_step() const { return step_; }
+  void set_anchor_step(std::int64_t s) { step_ = s; }
 
   /// Steps without contact after which a point forgets its static-friction anchor.
   static constexpr std::int64_t kAnchorGrace = 2;
@@ -82,14 +109,17 @@ private:
   struct Slot {
     double mass, inv_mass;
     double column_sum;       // s_j
-    double count;            // collisions with this vertex as the point i
     double dx[3];            // x - x^t (x~, then corrected)
     double normal[3];        // sum of normal local forces
     double friction[3];      // sum of friction local forces
     double depth[3];         // sum of d_i as point i
+    gid_t gid;
+    std::int32_t nb;         // ghost: index of its owner among the halo's neighbours; owned: -1
+    bool remote;             // owned, with contributions from other ranks in the current sum
   };
   struct Local {             // per collision
     std::int32_t slot[4];    // i, j, k, l
+    std::int32_t anchor_slot[3];  // vertices of the anchor triangle when anchored, else -1
     // The local force pair is linear in the penetration vector: f_i = a_i d_i and
     // f_Ti,j = a_j d_i (eqs 15, 16), with a_i + sum_j a_j = 0. Friction reuses the
     // coefficients with a tangential vector in place of d_i.
@@ -99,17 +129,24 @@ private:
     double e[3];             // friction: tangential vector
     bool keep_anchor;        // friction: stuck to a valid anchor, which stays
   };
-  // Static-friction anchor of a point (per local vertex): where on the other body it
-  // sticks. Local vertex indices (the World does not renumber during a run).
-  struct Anchor {
-    std::int64_t step = -1;  // last step with a contact to this anchor's body
-    std::int32_t object = -1;
-    index_t tri[3] = {-1, -1, -1};
-    double bary[3] = {0, 0, 0};
+  // A contribution to an owned vertex's sum from another rank, with its collision's key.
+  struct Record {
+    gid_t vertex, key_point, key_triangle;
+    double v[3];
   };
-  std::int64_t normal_forces(const std::vector<Collision>& c, double dt);
-  void friction_forces(const World& w, const std::vector<Collision>& c, double dt, ContactStats& stats);
-  void update_anchors(const World& w, const std::vector<Collision>& c);
+  struct Contribution {
+    std::int32_t slot;
+    gid_t key_point, key_triangle;
+    double v[3];
+  };
+  std::int32_t slot_of_vertex(const World& w, index_t v);
+  void plan_ghosts(const World& w, Halo* halo);
+  template <class Emit, class Target>
+  void reduce(const std::vector<Collision>& col, int dim, Emit&& emit, Target&& target, Halo* halo);
+  template <class Value>
+  void reply(int dim, Value&& value, Halo* halo);
+  std::int64_t normal_coefficients(const std::vector<Collision>& c, double dt);
+  void friction_coefficients(const std::vector<Collision>& c, ContactStats& stats);
   void materialize();
 
   std::vector<std::int32_t> object_material_;             // material of each object
@@ -118,7 +155,15 @@ private:
   std::vector<index_t> vertex_of_;                         // per slot
   std::vector<Slot> slots_;
   std::vector<Local> local_;
-  std::vector<Anchor> anchor_;                             // n_local
+  std::vector<StictionAnchor> anchor_;                     // n_owned
+  std::vector<gid_t> object_vertex_begin_;                 // per object, for gid -> object
+  std::vector<std::vector<std::int32_t>> request_;         // per neighbour: our ghost slots it owns
+  std::vector<std::vector<std::int32_t>> served_;          // per neighbour: our owned slots it asked for
+  std::vector<Record> remote_;                             // received contributions (one sum at a time)
+  std::vector<Contribution> merge_;                        // local contributions to slots with remote ones
+  std::vector<gid_t> served_gids_;                         // sorted gids of all served vertices
+  std::vector<std::int32_t> served_slot_;                  // their slots
+  const double* world_x_prev_ = nullptr;                   // x^t during respond()
   std::int64_t step_ = 0;                                  // respond() calls so far
   std::vector<double> force_, penetration_;                // n_local x 3, filled on demand
   std::vector<index_t> materialized_;                      // entries of force_ that are set

@@ -18,19 +18,34 @@
 #include "softcontact/collision.hpp"
 #include "softcontact/contact.hpp"
 #include "softcontact/diagnostics.hpp"
+#include "softcontact/partition.hpp"
 #include "softcontact/scene.hpp"
+#include "softcontact/surface.hpp"
 #include "softcontact/world.hpp"
 
 namespace softcontact {
 
 class ElasticForces;
 class ImplicitEuler;
+class Halo;
+
+/// When a run repartitions its objects (docs/architecture.md, "Migration").
+struct RebalancePolicy {
+  std::int64_t check_every = 200;   ///< steps between checks (0: never)
+  double max_imbalance = 1.25;      ///< repartition when max/mean of the per-rank work passes this
+  double max_cross_fraction = 0.5;  ///< ... or when this fraction of the collisions crosses ranks
+};
+
+/// The partition METIS gives the scene's objects at their initial positions: nodes
+/// weighted by tets (kinematic objects by a tenth of their surface triangles), edges
+/// between objects closer than the median object size. Identical on every rank.
+std::vector<int> initial_partition(const Scene& scene, const std::vector<Surface>& surfaces, int nranks);
 
 class Simulator {
 public:
-  /// Builds this rank's World (objects partitioned over the ranks of `comm`) and every
-  /// phase's precomputed data. Collective.
-  Simulator(MPI_Comm comm, const Scene& scene);
+  /// Builds this rank's World (objects partitioned over the ranks of `comm` with METIS,
+  /// or as `partition` gives them) and every phase's precomputed data. Collective.
+  Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partition = {});
   ~Simulator();
   Simulator(const Simulator&) = delete;
   Simulator& operator=(const Simulator&) = delete;
@@ -49,9 +64,9 @@ public:
   const CollisionStats& collision_stats() const { return collision_stats_; }
   const ContactStats& contact_stats() const { return contact_stats_; }
   /// Contact force per local vertex of the last step, (n_local,3) [N].
-  const std::vector<double>& contact_force() { return contact_.force(); }
+  const std::vector<double>& contact_force() { return contact_->force(); }
   /// Sum of penetration vectors per colliding vertex of the last step, (n_local,3) [m].
-  const std::vector<double>& penetration() { return contact_.penetration(); }
+  const std::vector<double>& penetration() { return contact_->penetration(); }
 
   /// Energies, momentum, contact counts, force balance and the residual penetration (a
   /// second detection pass at the corrected positions: the largest remaining depth over
@@ -66,19 +81,51 @@ public:
   std::int64_t initial_overlaps() const { return initial_overlaps_; }
   double initial_overlap_depth() const { return initial_overlap_depth_; }
 
-  /// Median edge length of all tets of this rank [m].
+  /// Median edge length of all tets of the scene [m].
   double median_edge() const { return median_edge_; }
+
+  /// Object -> rank of the current partition.
+  const std::vector<int>& partition() const { return partition_; }
+  /// Moves objects to the ranks `partition` names, with their state (positions, previous
+  /// positions, velocities, friction anchors); the results of later steps do not change.
+  /// Collective, between steps.
+  void migrate(const std::vector<int>& partition);
+  void set_rebalance_policy(const RebalancePolicy& p) { rebalance_ = p; }
+  /// Repartitions done by the rebalance policy so far.
+  std::int64_t repartitions() const { return repartitions_; }
+  /// Ghost-set rebuilds so far (the halo grows and shrinks as objects move).
+  std::int64_t ghost_rebuilds() const { return ghost_rebuilds_; }
+  /// Bytes this rank has received through the halo since construction.
+  std::int64_t halo_bytes() const;
+  /// Collisions of this rank whose triangle lies on an object of another rank, last step.
+  std::int64_t cross_rank_collisions() const { return cross_collisions_; }
 
 private:
   void compute_forces();
+  void build_components();
+  void rebuild_ghosts(bool force);
+  void make_detector();
+  bool ghosts_stale();
+  void maybe_rebalance();
 
   MPI_Comm comm_;
+  int rank_ = 0, nranks_ = 1;
   const Scene& scene_;
+  std::vector<Surface> surfaces_;
+  std::vector<int> partition_;
   World world_;
+  std::unique_ptr<Halo> halo_;
+  CollisionSettings collision_settings_;
+  double skin_ = 0;                  // ghost reach: objects closer than this are ghosted
+  std::vector<double> x_at_ghosts_;  // owned positions when the ghost set was built
+  RebalancePolicy rebalance_;
+  std::int64_t repartitions_ = 0, ghost_rebuilds_ = 0, cross_collisions_ = 0;
+  std::int64_t halo_bytes_before_ = 0;  // of halos since replaced
+  double work_seconds_ = 0;          // compute time since the last rebalance check
   std::unique_ptr<ElasticForces> elastic_;
   std::unique_ptr<ImplicitEuler> implicit_;
-  CollisionDetector detector_;
-  ContactSolver contact_;
+  std::unique_ptr<CollisionDetector> detector_;
+  std::unique_ptr<ContactSolver> contact_;
   std::vector<double> f_;
   std::vector<Collision> collisions_, residual_;
   CollisionStats collision_stats_;

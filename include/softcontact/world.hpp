@@ -1,7 +1,9 @@
 #pragma once
 // The rank-local simulation state (design.md, "Data"): structure of arrays, interleaved
-// xyz per vertex, global ids that never change, owned entities first and ghosts after
-// (ghost ranges are empty until the MPI layer adds halos).
+// xyz per vertex, global ids that never change, owned entities first and ghosts after.
+// Ghosts are whole objects of other ranks that lie within reach of this rank's objects
+// (docs/architecture.md, "Parallel step"): their static data (masses, tets, surface) is
+// built from the scene, their positions come through the halo exchange.
 //
 // Global numbering: objects in scene order; an object's vertices, tets and surface
 // triangles take consecutive global ids, so global order = scene order everywhere
@@ -14,6 +16,7 @@
 
 #include "softcontact/mesh.hpp"
 #include "softcontact/scene.hpp"
+#include "softcontact/surface.hpp"
 
 namespace softcontact {
 
@@ -33,7 +36,11 @@ struct World {
 
   // ---- rank-local
   std::vector<int> owned_objects;       ///< ascending object indices owned by this rank
+  std::vector<int> ghost_objects;       ///< ascending object indices held as ghosts
+  std::vector<index_t> vertex_offset;   ///< per object: local index of its first vertex, -1 if absent
   std::size_t n_owned = 0;              ///< vertices [0, n_owned) are owned
+  std::size_t m_owned = 0;              ///< tets [0, m_owned) belong to owned objects
+  std::size_t s_owned = 0;              ///< surface triangles [0, s_owned) belong to owned objects
   std::vector<gid_t> vertex_gid;        ///< (n_local)
   std::vector<std::int32_t> vertex_object;
   std::vector<double> x;                ///< (n_local,3) positions x^t [m]
@@ -51,18 +58,35 @@ struct World {
   std::vector<gid_t> triangle_gid;
 
   std::size_t n_local() const { return vertex_gid.size(); }
+  /// Local index of a global vertex id of an object present on this rank.
+  index_t local_vertex(int object, gid_t gid) const {
+    return vertex_offset[static_cast<std::size_t>(object)] +
+           static_cast<index_t>(gid - layout[static_cast<std::size_t>(object)].vertex_begin);
+  }
+  bool owns_object(int object) const { return layout[static_cast<std::size_t>(object)].rank == rank; }
+  int rank = 0;                         ///< this rank
 };
 
 /// Objects -> ranks in contiguous blocks of about equal tet count. Objects are never
-/// split. The METIS graph partition (objects near each other on one rank) of the MPI
-/// work will replace it; until then contacts never cross ranks because there are none.
+/// split. (Simulations partition with METIS, partition.hpp; this is for tests and tools.)
 std::vector<int> block_partition(const Scene& scene, int nranks);
+
+/// The outward surface of every object of the scene, in scene order.
+std::vector<Surface> extract_surfaces(const Scene& scene);
 
 /// Builds the rank-local state of `rank`: global layout of all objects, then the owned
 /// objects' vertices (lumped masses: a quarter of each incident tet's mass), tets and
 /// outward surface triangles. Vertices of kinematic objects and inside `fixed` boxes get
-/// inverse mass 0.
+/// inverse mass 0. No ghosts (set_ghost_objects adds them).
 World build_world(const Scene& scene, const std::vector<int>& object_rank, int rank);
+World build_world(const Scene& scene, const std::vector<Surface>& surfaces, const std::vector<int>& object_rank,
+                  int rank);
+
+/// Replaces the ghost part of `w` by the objects `ghosts` (ascending, none owned): their
+/// vertices, tets and surface triangles from the scene, with initial positions (the halo
+/// exchange overwrites them). The owned part, and so every owned local index, is kept.
+void set_ghost_objects(World& w, const Scene& scene, const std::vector<Surface>& surfaces,
+                       const std::vector<int>& ghosts);
 
 /// Contiguous runs [begin, begin+count) of global vertex ids owned by this rank, in
 /// ascending order (what a rank writes to the global datasets).

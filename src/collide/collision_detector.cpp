@@ -153,7 +153,7 @@ struct CollisionDetector::Impl {
   std::vector<DepthCounters> group_counts;
   std::vector<DepthScratch> scratch;
 
-  Impl(const World& w, const CollisionSettings& s);
+  Impl(const World& w, const CollisionSettings& s, const double* rest_x);
   void detect(const World& w, const double* x_prev, std::vector<Collision>& out, CollisionStats& st);
 
 private:
@@ -165,14 +165,16 @@ private:
   void depth(const World& w, std::vector<Collision>& out, CollisionStats& st);
 };
 
-CollisionDetector::Impl::Impl(const World& w, const CollisionSettings& s)
+CollisionDetector::Impl::Impl(const World& w, const CollisionSettings& s, const double* rest_x)
     : settings(s), topo(build_collision_topology(w)) {
   double h = settings.cell_size > 0 ? settings.cell_size : topo.mean_edge_length;
   if (!(h > 0) || !std::isfinite(h)) h = 1;  // no edges at all: any size works
   grid.set_cell_size(h);
   bvh.resize(topo.objects.size());
   for (std::size_t k = 0; k < topo.objects.size(); ++k) {
-    bvh[k].build(w.x.data(), w.triangles.data(), topo.objects[k].triangles);
+    // The tree's shape (and so the order of its search results) depends on the positions
+    // it is built from: the rest positions, whenever the detector is built.
+    bvh[k].build(rest_x ? rest_x : w.x.data(), w.triangles.data(), topo.objects[k].triangles);
     const double t = topo.objects[k].thickness;
     if (t > 0 && (thinnest == 0 || t < thinnest)) thinnest = t;
   }
@@ -240,8 +242,8 @@ void CollisionDetector::Impl::find_partners(const double* x) {
   for (auto& p : partners) std::sort(p.begin(), p.end());
 }
 
-// Step 2: the query points, surface vertices inside the box of a partner object (all
-// surface vertices of objects with partners, with self-collisions on), and per object B
+// Step 2: the query points, owned surface vertices inside the box of a partner object
+// (all owned surface vertices of objects with partners, with self-collisions on), and per object B
 // a box holding the other objects' query points inside B's box: a tet of B whose box
 // misses it cannot hold any of them.
 void CollisionDetector::Impl::select_points(const World& w) {
@@ -256,7 +258,8 @@ void CollisionDetector::Impl::select_points(const World& w) {
   parallel_for(no, [&](std::size_t k, int) {
     object_points[k].clear();
     point_box[k].reset();
-    if (!object_active[k]) return;
+    // Only owned points are queried: a ghost object's points are its owner's to query.
+    if (!object_active[k] || !w.owns_object(topo.objects[k].object)) return;
     for (index_t v : topo.objects[k].surface_vertices) {
       if (bad_vertex[static_cast<std::size_t>(v)]) continue;
       const V3 p = load(x, v);
@@ -466,8 +469,8 @@ void CollisionDetector::Impl::detect(const World& w, const double* x_prev, std::
   st.depth_seconds = seconds_since(t1);
 }
 
-CollisionDetector::CollisionDetector(const World& world, const CollisionSettings& settings)
-    : impl_(std::make_unique<Impl>(world, settings)) {}
+CollisionDetector::CollisionDetector(const World& world, const CollisionSettings& settings, const double* rest_x)
+    : impl_(std::make_unique<Impl>(world, settings, rest_x)) {}
 CollisionDetector::~CollisionDetector() = default;
 CollisionDetector::CollisionDetector(CollisionDetector&&) noexcept = default;
 CollisionDetector& CollisionDetector::operator=(CollisionDetector&&) noexcept = default;

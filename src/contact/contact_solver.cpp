@@ -1,32 +1,191 @@
 // The analytic contact response (contact.hpp gives the equations). Work is O(1) per
 // collision: one pass for the column sums s_j, one (parallel) for alpha_i and the local
-// forces, one scatter of the local forces in collision order, then friction likewise.
+// forces, one fold of the local forces per vertex, then friction likewise.
+//
+// Every per-vertex sum is a fold over the vertex's contributions in the order of their
+// collisions' keys (point_gid, triangle_gid), which is the order of the sorted collision
+// list. With several ranks a vertex's contributions come from every rank holding a
+// collision that touches it: the other ranks send theirs, with the keys, to the owner
+// (reduce), which merges them with its own in key order and folds; the owner then sends
+// the sums the others need back (reply). The arithmetic is the same on any rank count.
 #include "softcontact/contact.hpp"
 
+#include <algorithm>
 #include <cmath>
+
+#include "softcontact/error.hpp"
+#include "softcontact/halo.hpp"
 
 namespace softcontact {
 
 namespace {
 inline double norm3(const double* a) { return std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
+
+bool key_less(gid_t ap, gid_t at, gid_t bp, gid_t bt) { return ap != bp ? ap < bp : at < bt; }
 }  // namespace
 
 ContactSolver::ContactSolver(const Scene& scene, const World& world) : friction_(scene.friction) {
   object_material_.reserve(scene.objects.size());
   for (const SceneObject& o : scene.objects) object_material_.push_back(o.material);
+  for (const ObjectLayout& L : world.layout) object_vertex_begin_.push_back(L.vertex_begin);
   slot_of_.assign(world.n_local(), -1);
   force_.assign(3 * world.n_local(), 0.0);
   penetration_.assign(3 * world.n_local(), 0.0);
+  anchor_.assign(world.n_owned, StictionAnchor{});
 }
 
-std::int64_t ContactSolver::normal_forces(const std::vector<Collision>& col, double dt) {
-  // Column sums s_j of H and collision counts, in collision order.
-  for (std::size_t q = 0; q < col.size(); ++q) {
-    const Collision& c = col[q];
-    const Local& L = local_[q];
-    for (int k = 0; k < 3; ++k) slots_[L.slot[1 + k]].column_sum += c.weight[k];
-    slots_[L.slot[0]].count += 1;
+std::int32_t ContactSolver::slot_of_vertex(const World& w, index_t v) {
+  const auto i = static_cast<std::size_t>(v);
+  if (slot_of_[i] < 0) {
+    slot_of_[i] = static_cast<std::int32_t>(vertex_of_.size());
+    vertex_of_.push_back(v);
+    Slot s{};
+    s.mass = w.mass[i];
+    s.inv_mass = w.inv_mass[i];
+    s.gid = w.vertex_gid[i];
+    s.nb = -1;
+    s.remote = false;
+    for (int d = 0; d < 3; ++d) s.dx[d] = w.x[3 * i + d] - w.x_prev[3 * i + d];
+    slots_.push_back(s);
   }
+  return slot_of_[i];
+}
+
+// Which ghost slots each neighbour owns (our requests), and which of our vertices each
+// neighbour asks for (served): exchanged once per step, with the column sums.
+void ContactSolver::plan_ghosts(const World& w, Halo* halo) {
+  const std::size_t nn = halo ? halo->neighbors().size() : 0;
+  request_.assign(nn, {});
+  served_.assign(nn, {});
+  if (nn == 0) return;
+  const std::vector<int>& nbr = halo->neighbors();
+  for (std::size_t k = 0; k < slots_.size(); ++k) {
+    const index_t v = vertex_of_[k];
+    if (static_cast<std::size_t>(v) < w.n_owned) continue;
+    const int owner = w.layout[static_cast<std::size_t>(w.vertex_object[static_cast<std::size_t>(v)])].rank;
+    const auto it = std::lower_bound(nbr.begin(), nbr.end(), owner);
+    slots_[k].nb = static_cast<std::int32_t>(it - nbr.begin());
+    request_[static_cast<std::size_t>(slots_[k].nb)].push_back(static_cast<std::int32_t>(k));
+  }
+  std::vector<std::vector<char>> send(nn);
+  for (std::size_t n = 0; n < nn; ++n) {
+    std::vector<gid_t> gids;
+    for (std::int32_t k : request_[n]) gids.push_back(slots_[static_cast<std::size_t>(k)].gid);
+    append_records(send[n], gids.data(), gids.size());
+  }
+  const auto recv = halo->exchange_bytes(send);
+  std::vector<std::pair<gid_t, std::int32_t>> served;
+  for (std::size_t n = 0; n < nn; ++n)
+    for (gid_t g : read_records<gid_t>(recv[n])) {
+      const auto o = std::upper_bound(object_vertex_begin_.begin(), object_vertex_begin_.end(), g) -
+                     object_vertex_begin_.begin() - 1;
+      served_[n].push_back(slot_of_vertex(w, w.local_vertex(static_cast<int>(o), g)));
+      served.emplace_back(g, served_[n].back());
+    }
+  std::sort(served.begin(), served.end());
+  served.erase(std::unique(served.begin(), served.end()), served.end());
+  served_gids_.clear();
+  served_slot_.clear();
+  for (const auto& [g, k] : served) {
+    served_gids_.push_back(g);
+    served_slot_.push_back(k);
+  }
+}
+
+// Sums a per-vertex quantity of `dim` components over the collisions: emit(q, f) calls
+// f(slot, value) for every contribution of collision q; target(slot) is the sum to fill
+// (zero before). Owned slots get their complete sums; ghost slots none (reply() fills
+// what is needed).
+template <class Emit, class Target>
+void ContactSolver::reduce(const std::vector<Collision>& col, int dim, Emit&& emit, Target&& target, Halo* halo) {
+  const std::size_t nn = request_.size();
+  remote_.clear();
+  if (nn > 0) {
+    std::vector<std::vector<char>> send(nn);
+    std::vector<std::vector<Record>> out(nn);
+    for (std::size_t q = 0; q < col.size(); ++q)
+      emit(q, [&](std::int32_t k, const double* v) {
+        const Slot& s = slots_[static_cast<std::size_t>(k)];
+        if (s.nb < 0) return;
+        Record r{s.gid, col[q].point_gid, col[q].triangle_gid, {0, 0, 0}};
+        for (int d = 0; d < dim; ++d) r.v[d] = v[d];
+        out[static_cast<std::size_t>(s.nb)].push_back(r);
+      });
+    for (std::size_t n = 0; n < nn; ++n) append_records(send[n], out[n].data(), out[n].size());
+    const auto recv = halo->exchange_bytes(send);
+    for (std::size_t n = 0; n < nn; ++n) {
+      const std::vector<Record> in = read_records<Record>(recv[n]);
+      remote_.insert(remote_.end(), in.begin(), in.end());
+    }
+  }
+  // The common case: every contribution is local and already in key order.
+  for (const Record& r : remote_) {
+    // Owner-side lookup: the vertex was requested in plan_ghosts, so it has a slot.
+    const auto it = std::lower_bound(served_gids_.begin(), served_gids_.end(), r.vertex);
+    slots_[static_cast<std::size_t>(served_slot_[static_cast<std::size_t>(it - served_gids_.begin())])].remote = true;
+  }
+  for (std::size_t q = 0; q < col.size(); ++q)
+    emit(q, [&](std::int32_t k, const double* v) {
+      Slot& s = slots_[static_cast<std::size_t>(k)];
+      if (s.nb >= 0 || s.remote) return;
+      double* t = target(s);
+      for (int d = 0; d < dim; ++d) t[d] += v[d];
+    });
+  if (remote_.empty()) return;
+  // Vertices with contributions from other ranks: merge theirs and ours by key.
+  merge_.clear();
+  for (std::size_t q = 0; q < col.size(); ++q)
+    emit(q, [&](std::int32_t k, const double* v) {
+      if (!slots_[static_cast<std::size_t>(k)].remote) return;
+      Contribution c{k, col[q].point_gid, col[q].triangle_gid, {0, 0, 0}};
+      for (int d = 0; d < dim; ++d) c.v[d] = v[d];
+      merge_.push_back(c);
+    });
+  for (const Record& r : remote_) {
+    const auto it = std::lower_bound(served_gids_.begin(), served_gids_.end(), r.vertex);
+    Contribution c{served_slot_[static_cast<std::size_t>(it - served_gids_.begin())], r.key_point, r.key_triangle,
+                   {r.v[0], r.v[1], r.v[2]}};
+    merge_.push_back(c);
+  }
+  std::sort(merge_.begin(), merge_.end(), [](const Contribution& a, const Contribution& b) {
+    if (a.slot != b.slot) return a.slot < b.slot;
+    return key_less(a.key_point, a.key_triangle, b.key_point, b.key_triangle);
+  });
+  for (const Contribution& c : merge_) {
+    double* t = target(slots_[static_cast<std::size_t>(c.slot)]);
+    for (int d = 0; d < dim; ++d) t[d] += c.v[d];
+  }
+  for (const Contribution& c : merge_) slots_[static_cast<std::size_t>(c.slot)].remote = false;
+}
+
+// The owners send value(slot) of every vertex a neighbour asked for; the answers land
+// in the neighbour's ghost slots through value(slot) as a destination.
+template <class Value>
+void ContactSolver::reply(int dim, Value&& value, Halo* halo) {
+  const std::size_t nn = request_.size();
+  if (nn == 0) return;
+  std::vector<std::vector<char>> send(nn);
+  for (std::size_t n = 0; n < nn; ++n) {
+    std::vector<double> vals;
+    vals.reserve(static_cast<std::size_t>(dim) * served_[n].size());
+    for (std::int32_t k : served_[n]) {
+      const double* v = value(slots_[static_cast<std::size_t>(k)]);
+      vals.insert(vals.end(), v, v + dim);
+    }
+    append_records(send[n], vals.data(), vals.size());
+  }
+  const auto recv = halo->exchange_bytes(send);
+  for (std::size_t n = 0; n < nn; ++n) {
+    const std::vector<double> vals = read_records<double>(recv[n]);
+    SC_ASSERT(vals.size() == static_cast<std::size_t>(dim) * request_[n].size());
+    for (std::size_t i = 0; i < request_[n].size(); ++i) {
+      double* v = value(slots_[static_cast<std::size_t>(request_[n][i])]);
+      for (int d = 0; d < dim; ++d) v[d] = vals[static_cast<std::size_t>(dim) * i + static_cast<std::size_t>(d)];
+    }
+  }
+}
+
+std::int64_t ContactSolver::normal_coefficients(const std::vector<Collision>& col, double dt) {
   const std::ptrdiff_t nc = static_cast<std::ptrdiff_t>(col.size());
   const double inv_dt2 = 1.0 / (dt * dt);
   std::int64_t fixed_pairs = 0;
@@ -76,24 +235,10 @@ std::int64_t ContactSolver::normal_forces(const std::vector<Collision>& col, dou
         L.aT[k] = -cj[k] * c.weight[k] * slots_[L.slot[1 + k]].mass * (1 - alpha) * inv_dt2;  // (16)
     }
   }
-  // Scatter in collision order: every per-vertex sum has a fixed order (eq. 22).
-  for (std::size_t q = 0; q < col.size(); ++q) {
-    const Local& L = local_[q];
-    const double* d = col[q].depth.data();
-    Slot& si = slots_[L.slot[0]];
-    for (int a = 0; a < 3; ++a) {
-      si.normal[a] += L.ai * d[a];
-      si.depth[a] += d[a];
-    }
-    for (int k = 0; k < 3; ++k) {
-      Slot& sj = slots_[L.slot[1 + k]];
-      for (int a = 0; a < 3; ++a) sj.normal[a] += L.aT[k] * d[a];
-    }
-  }
   return fixed_pairs;
 }
 
-void ContactSolver::friction_forces(const World& w, const std::vector<Collision>& col, double dt, ContactStats& stats) {
+void ContactSolver::friction_coefficients(const std::vector<Collision>& col, ContactStats& stats) {
   // Coulomb friction, decoupled from the normal response (the paper's Sec. 3.4) and
   // computed with the same closed form. After the normal correction, the relative
   // tangential motion of i against the point of T_i it touches within this step is
@@ -108,12 +253,12 @@ void ContactSolver::friction_forces(const World& w, const std::vector<Collision>
   //
   // Anchored stiction: when i already sticks to B, u dt is instead the tangential offset
   // of i from its anchor a on B (contact.hpp), both after the normal correction:
-  //   u dt = x_i - sum_k b_k x_(a_k),
+  //   u dt = x_i - sum_k b_k x_(a_k),   x = x^t + dx (corrected),
   // which equals the in-step motion when i started the step on its anchor, and otherwise
   // also undoes the slip left over from earlier steps (within the same cone).
-  auto corrected = [&](index_t v, int d) {
-    const std::int32_t sv = slot_of_[static_cast<std::size_t>(v)];
-    return sv >= 0 ? w.x_prev[3 * v + d] + slots_[sv].dx[d] : w.x[3 * v + d];
+  auto corrected = [&](std::int32_t k, index_t v, int d) {
+    return world_x_prev_[3 * static_cast<std::size_t>(v) + static_cast<std::size_t>(d)] +
+           slots_[static_cast<std::size_t>(k)].dx[d];
   };
   const std::ptrdiff_t nc = static_cast<std::ptrdiff_t>(col.size());
   std::int64_t sticking = 0, sliding = 0;
@@ -130,12 +275,12 @@ void ContactSolver::friction_forces(const World& w, const std::vector<Collision>
     if (mu.mu_static == 0 && mu.mu_kinetic == 0) continue;
     const double n[3] = {c.depth[0] / dn, c.depth[1] / dn, c.depth[2] / dn};
     double u[3];
-    const Anchor& an = anchor_[static_cast<std::size_t>(c.point)];
-    const bool anchored = an.object == c.other_object && an.step >= step_ - kAnchorGrace;
-    if (anchored) {
+    if (L.anchor_slot[0] >= 0) {
+      const StictionAnchor& an = anchor_[static_cast<std::size_t>(c.point)];
       for (int d = 0; d < 3; ++d) {
-        u[d] = corrected(c.point, d);
-        for (int k = 0; k < 3; ++k) u[d] -= an.bary[k] * corrected(an.tri[k], d);
+        u[d] = corrected(L.slot[0], c.point, d);
+        for (int k = 0; k < 3; ++k)
+          u[d] -= an.bary[k] * corrected(L.anchor_slot[k], vertex_of_[static_cast<std::size_t>(L.anchor_slot[k])], d);
       }
     } else {
       for (int d = 0; d < 3; ++d) {
@@ -148,7 +293,7 @@ void ContactSolver::friction_forces(const World& w, const std::vector<Collision>
     const double en = norm3(L.e);
     if (en <= mu.mu_static * dn) {
       L.scale = en == 0 ? 0 : 1;
-      L.keep_anchor = anchored;
+      L.keep_anchor = L.anchor_slot[0] >= 0;
       ++sticking;
     } else {
       L.scale = mu.mu_kinetic * dn / en;
@@ -157,56 +302,103 @@ void ContactSolver::friction_forces(const World& w, const std::vector<Collision>
   }
   stats.sticking = sticking;
   stats.sliding = sliding;
-  for (std::size_t q = 0; q < col.size(); ++q) {
-    const Local& L = local_[q];
-    if (L.scale == 0) continue;
-    for (int d = 0; d < 3; ++d) slots_[L.slot[0]].friction[d] += L.ai * L.scale * L.e[d];
-    for (int k = 0; k < 3; ++k)
-      for (int d = 0; d < 3; ++d) slots_[L.slot[1 + k]].friction[d] += L.aT[k] * L.scale * L.e[d];
-  }
 }
 
-void ContactSolver::respond(World& w, const std::vector<Collision>& col, double dt, ContactStats& stats) {
-  for (index_t v : vertex_of_) slot_of_[v] = -1;
+void ContactSolver::respond(World& w, const std::vector<Collision>& col, double dt, ContactStats& stats, Halo* halo) {
+  for (index_t v : vertex_of_) slot_of_[static_cast<std::size_t>(v)] = -1;
   vertex_of_.clear();
   slots_.clear();
   materialized_current_ = false;
   stats = ContactStats{};
   stats.collisions = static_cast<std::int64_t>(col.size());
   ++step_;
-  if (anchor_.size() != w.n_local()) anchor_.assign(w.n_local(), Anchor{});
-
-  // Slots in order of first appearance in the sorted collision list: a fixed order.
-  local_.resize(col.size());
-  auto slot = [&](index_t v) {
-    if (slot_of_[v] < 0) {
-      slot_of_[v] = static_cast<std::int32_t>(vertex_of_.size());
-      vertex_of_.push_back(v);
-      Slot s{};
-      s.mass = w.mass[v];
-      s.inv_mass = static_cast<std::size_t>(v) < w.n_owned ? w.inv_mass[v] : 0.0;
-      for (int d = 0; d < 3; ++d) s.dx[d] = w.x[3 * v + d] - w.x_prev[3 * v + d];
-      slots_.push_back(s);
-    }
-    return slot_of_[v];
-  };
-  for (std::size_t q = 0; q < col.size(); ++q) {
-    local_[q].slot[0] = slot(col[q].point);
-    for (int k = 0; k < 3; ++k) local_[q].slot[1 + k] = slot(col[q].triangle[k]);
+  if (slot_of_.size() != w.n_local()) {  // the ghost part changed size
+    slot_of_.assign(w.n_local(), -1);
+    for (index_t& v : materialized_)
+      if (static_cast<std::size_t>(v) >= w.n_owned) v = -1;
+    materialized_.erase(std::remove(materialized_.begin(), materialized_.end(), -1), materialized_.end());
+    force_.resize(3 * w.n_local(), 0.0);
+    penetration_.resize(3 * w.n_local(), 0.0);
   }
-  if (col.empty()) return;
+  if (anchor_.size() != w.n_owned) anchor_.assign(w.n_owned, StictionAnchor{});
+  world_x_prev_ = w.x_prev.data();
 
-  stats.fixed_pairs = normal_forces(col, dt);
-  // Normal correction first (friction sees the corrected velocities), x = x~ + dt^2 F/m.
+  // Slots in order of first appearance in the sorted collision list (a fixed order),
+  // then the vertices of valid anchors.
+  local_.resize(col.size());
+  for (std::size_t q = 0; q < col.size(); ++q) {
+    Local& L = local_[q];
+    L.slot[0] = slot_of_vertex(w, col[q].point);
+    for (int k = 0; k < 3; ++k) L.slot[1 + k] = slot_of_vertex(w, col[q].triangle[k]);
+  }
+  for (std::size_t q = 0; q < col.size(); ++q) {
+    const Collision& c = col[q];
+    Local& L = local_[q];
+    const StictionAnchor& an = anchor_[static_cast<std::size_t>(c.point)];
+    const bool anchored = an.object == c.other_object && an.step >= step_ - kAnchorGrace;
+    for (int k = 0; k < 3; ++k) L.anchor_slot[k] = anchored ? slot_of_vertex(w, w.local_vertex(an.object, an.tri[k])) : -1;
+  }
+  plan_ghosts(w, halo);  // collective over the neighbours, also without collisions
+  // Without neighbours and collisions there is nothing to do; with neighbours every
+  // exchange below must take place (they may need our vertices' sums).
+  if (request_.empty() && col.empty()) return;
+
+  // Column sums s_j of H, then the coefficients of the local force pairs.
+  reduce(
+      col, 1,
+      [&](std::size_t q, auto&& f) {
+        for (int k = 0; k < 3; ++k) f(local_[q].slot[1 + k], &col[q].weight[static_cast<std::size_t>(k)]);
+      },
+      [](Slot& s) { return &s.column_sum; }, halo);
+  reply(1, [](Slot& s) { return &s.column_sum; }, halo);
+  stats.fixed_pairs = normal_coefficients(col, dt);
+
+  // Normal forces f_i = a_i d_i, f_Ti,j = a_j d_i per vertex; the normal correction
+  // (friction sees the corrected motion), x = x~ + dt^2 F / m, of the owned slots; the
+  // corrected motions of the ghost slots from their owners.
+  reduce(
+      col, 3,
+      [&](std::size_t q, auto&& f) {
+        const Local& L = local_[q];
+        const double* d = col[q].depth.data();
+        const double fi[3] = {L.ai * d[0], L.ai * d[1], L.ai * d[2]};
+        f(L.slot[0], fi);
+        for (int k = 0; k < 3; ++k) {
+          const double fj[3] = {L.aT[k] * d[0], L.aT[k] * d[1], L.aT[k] * d[2]};
+          f(L.slot[1 + k], fj);
+        }
+      },
+      [](Slot& s) { return s.normal; }, halo);
   const double dt2 = dt * dt;
   for (Slot& s : slots_)
-    for (int d = 0; d < 3; ++d) s.dx[d] += dt2 * s.inv_mass * s.normal[d];
-  friction_forces(w, col, dt, stats);
+    if (s.nb < 0)
+      for (int d = 0; d < 3; ++d) s.dx[d] += dt2 * s.inv_mass * s.normal[d];
+  reply(3, [](Slot& s) { return s.dx; }, halo);
+  for (std::size_t q = 0; q < col.size(); ++q) {
+    Slot& si = slots_[static_cast<std::size_t>(local_[q].slot[0])];
+    for (int a = 0; a < 3; ++a) si.depth[a] += col[q].depth[static_cast<std::size_t>(a)];
+  }
+
+  friction_coefficients(col, stats);
+  reduce(
+      col, 3,
+      [&](std::size_t q, auto&& f) {
+        const Local& L = local_[q];
+        if (L.scale == 0) return;
+        const double fi[3] = {L.ai * L.scale * L.e[0], L.ai * L.scale * L.e[1], L.ai * L.scale * L.e[2]};
+        f(L.slot[0], fi);
+        for (int k = 0; k < 3; ++k) {
+          const double fj[3] = {L.aT[k] * L.scale * L.e[0], L.aT[k] * L.scale * L.e[1], L.aT[k] * L.scale * L.e[2]};
+          f(L.slot[1 + k], fj);
+        }
+      },
+      [](Slot& s) { return s.friction; }, halo);
 
   double sum[3] = {0, 0, 0}, abs_sum = 0;
   for (std::size_t k = 0; k < slots_.size(); ++k) {
     const Slot& s = slots_[k];
-    const index_t v = vertex_of_[k];
+    if (s.nb >= 0) continue;  // a ghost: its owner applies the sums
+    const auto v = static_cast<std::size_t>(vertex_of_[k]);
     double f[3];
     for (int d = 0; d < 3; ++d) {
       f[d] = s.normal[d] + s.friction[d];
@@ -220,18 +412,22 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
     }
   }
   for (const Collision& c : col) stats.max_depth = std::max(stats.max_depth, norm3(c.depth.data()));
+  for (int d = 0; d < 3; ++d) stats.force_sum[d] = sum[d];
+  stats.force_abs_sum = abs_sum;
   stats.force_balance = abs_sum > 0 ? norm3(sum) / abs_sum : 0;
-  update_anchors(w, col);
+  if (!halo) update_anchors(w, col);
 }
 
 // After the step: points that stuck to a valid anchor keep it; every other colliding
 // point takes a new anchor, the foot of its final position on the final plane of T_i
 // (barycentric coordinates, not clamped: the foot may lie just outside T_i). In
 // collision order, so a point with records against two bodies ends with the later one.
+// The triangle's final positions: with ghosts, after the halo has refreshed them.
 void ContactSolver::update_anchors(const World& w, const std::vector<Collision>& col) {
+  if (local_.size() < col.size()) return;  // respond() has not seen these collisions
   for (std::size_t q = 0; q < col.size(); ++q) {
     const Collision& c = col[q];
-    Anchor& an = anchor_[static_cast<std::size_t>(c.point)];
+    StictionAnchor& an = anchor_[static_cast<std::size_t>(c.point)];
     if (local_[q].keep_anchor) {
       an.step = step_;
       continue;
@@ -248,7 +444,7 @@ void ContactSolver::update_anchors(const World& w, const std::vector<Collision>&
     const double den = d00 * d11 - d01 * d01;
     an.step = step_;
     an.object = c.other_object;
-    for (int k = 0; k < 3; ++k) an.tri[k] = c.triangle[k];
+    for (int k = 0; k < 3; ++k) an.tri[k] = w.vertex_gid[static_cast<std::size_t>(c.triangle[k])];
     if (den > 0) {
       const double v = (d11 * d20 - d01 * d21) / den, u = (d00 * d21 - d01 * d20) / den;
       an.bary[0] = 1 - v - u;
@@ -266,6 +462,7 @@ void ContactSolver::materialize() {
     for (int d = 0; d < 3; ++d) force_[3 * v + d] = penetration_[3 * v + d] = 0;
   materialized_ = vertex_of_;
   for (std::size_t k = 0; k < slots_.size(); ++k) {
+    if (slots_[k].nb >= 0) continue;  // ghost: partial sums only
     const index_t v = vertex_of_[k];
     for (int d = 0; d < 3; ++d) {
       force_[3 * v + d] = slots_[k].normal[d] + slots_[k].friction[d];

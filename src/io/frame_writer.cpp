@@ -103,10 +103,10 @@ FrameWriter::FrameWriter(MPI_Comm comm, const std::string& h5_path, const std::s
   std::vector<double> mass(n);
   for (std::size_t i = 0; i < n; ++i)
     mass[i] = w.inv_mass[i] == 0 ? std::numeric_limits<double>::infinity() : w.mass[i];
-  std::vector<std::int64_t> tets(w.tets.size()), tris(w.triangles.size());
+  std::vector<std::int64_t> tets(4 * w.m_owned), tris(3 * w.s_owned);  // ghosts are not written
   for (std::size_t i = 0; i < tets.size(); ++i) tets[i] = w.vertex_gid[w.tets[i]];
   for (std::size_t i = 0; i < tris.size(); ++i) tris[i] = w.vertex_gid[w.triangles[i]];
-  std::vector<std::int32_t> tet_obj(w.tet_object.begin(), w.tet_object.end());
+  std::vector<std::int32_t> tet_obj(w.tet_object.begin(), w.tet_object.begin() + static_cast<std::ptrdiff_t>(w.m_owned));
 
   write_rows(mesh, "points", nv_, 3, vertex_runs_, w.x.data());
   write_rows(mesh, "tets", nt_, 4, owned_tet_runs(w), tets.data());
@@ -153,6 +153,7 @@ void FrameWriter::write_frame(std::int64_t step, double time, const World& w, co
   write_attribute(g, "step", H5T_NATIVE_INT64, &step);
 
   FrameInfo info{step, time, {}, {}};
+  vertex_runs_ = owned_vertex_runs(w);  // objects may have migrated since the last frame
   write_rows(g, "positions", nv_, 3, vertex_runs_, w.x.data());
   write_rows(g, "velocities", nv_, 3, vertex_runs_, w.v.data());
   info.fields.emplace_back("velocity", 3);

@@ -43,8 +43,9 @@ Lame lame_of(const ElasticForces::Segment& s) { return {s.lambda, s.mu}; }
 }  // namespace
 
 ElasticForces::ElasticForces(const Scene& scene, const World& w) {
-  const std::size_t m = w.tet_gid.size();
-  const std::size_t n = w.n_local();
+  // Owned objects only: ghost tets (other ranks' objects within reach) are for contact.
+  const std::size_t m = w.m_owned;
+  const std::size_t n = w.n_owned;
   for (auto& c : corner_) c.resize(m);
   for (auto& d : dm_inv_) d.resize(m);
   volume_.resize(m);

@@ -4,8 +4,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <iostream>
+#include <limits>
 
+#include "softcontact/error.hpp"
 #include "softcontact/forces.hpp"
+#include "softcontact/halo.hpp"
 #include "softcontact/implicit_euler.hpp"
 #include "softcontact/integrator.hpp"
 
@@ -24,50 +29,104 @@ int size_of(MPI_Comm c) {
   return s;
 }
 
-CollisionSettings collision_settings(const Scene& s) {
-  CollisionSettings c;
-  c.self_collisions = s.sim.self_collisions;
-  return c;
-}
+constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
 
-/// Objects -> ranks for a run with contact. Contacts between objects on different ranks
-/// need the halo exchange of the MPI work, which does not exist yet; until then every
-/// object stays on rank 0 (correct, not parallel across ranks: use OpenMP threads).
-std::vector<int> contact_partition(const Scene& scene, int nranks) {
-  (void)nranks;
-  return std::vector<int>(scene.objects.size(), 0);
-}
-
-double median_edge_length(const World& w) {
+// Mean and median edge length over every tet edge of the scene (an edge counts once per
+// tet), from the scene alone: the same on every rank.
+void scene_edge_lengths(const Scene& scene, double& mean, double& median) {
   std::vector<double> len;
-  len.reserve(6 * (w.tets.size() / 4));
-  static constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
-  for (std::size_t t = 0; t < w.tets.size() / 4; ++t)
-    for (const auto& e : kEdges) {
-      const double* a = &w.x[3 * w.tets[4 * t + e[0]]];
-      const double* b = &w.x[3 * w.tets[4 * t + e[1]]];
-      len.push_back(std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]));
-    }
-  if (len.empty()) return 0;
+  len.reserve(6 * scene.num_tets());
+  double sum = 0;
+  for (const SceneObject& o : scene.objects)
+    for (std::size_t t = 0; t < o.mesh.num_tets(); ++t)
+      for (const auto& e : kEdges) {
+        const double* a = &o.mesh.points[3 * o.mesh.tets[4 * t + e[0]]];
+        const double* b = &o.mesh.points[3 * o.mesh.tets[4 * t + e[1]]];
+        len.push_back(std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]));
+        sum += len.back();
+      }
+  mean = median = 0;
+  if (len.empty()) return;
+  mean = sum / static_cast<double>(len.size());
   std::nth_element(len.begin(), len.begin() + static_cast<std::ptrdiff_t>(len.size() / 2), len.end());
-  return len[len.size() / 2];
+  median = len[len.size() / 2];
+}
+
+ObjectBox empty_box() {
+  ObjectBox b;
+  for (int d = 0; d < 3; ++d) {
+    b.lo[d] = std::numeric_limits<double>::infinity();
+    b.hi[d] = -std::numeric_limits<double>::infinity();
+  }
+  return b;
+}
+
+void add_point(ObjectBox& b, const double* p) {
+  for (int d = 0; d < 3; ++d) {
+    if (!(p[d] >= b.lo[d])) b.lo[d] = p[d];
+    if (!(p[d] <= b.hi[d])) b.hi[d] = p[d];
+  }
+}
+
+std::int64_t object_work(const Scene& scene, const std::vector<Surface>& surfaces, std::size_t k) {
+  // Kinematic objects cost no forces, only their share of detection.
+  return scene.objects[k].kinematic ? static_cast<std::int64_t>(surfaces[k].num_triangles() / 10)
+                                    : static_cast<std::int64_t>(scene.objects[k].mesh.num_tets());
+}
+
+// Median over objects of the largest side of their box: objects closer than this are
+// neighbours in the partition graph.
+double median_object_size(const std::vector<ObjectBox>& box) {
+  std::vector<double> size;
+  for (const ObjectBox& b : box) size.push_back(std::max({b.hi[0] - b.lo[0], b.hi[1] - b.lo[1], b.hi[2] - b.lo[2]}));
+  if (size.empty()) return 0;
+  std::nth_element(size.begin(), size.begin() + static_cast<std::ptrdiff_t>(size.size() / 2), size.end());
+  return size[size.size() / 2];
+}
+
+bool grown_overlap(const ObjectBox& a, const ObjectBox& b, double margin) {
+  for (int d = 0; d < 3; ++d)
+    if (a.lo[d] > b.hi[d] + margin || b.lo[d] > a.hi[d] + margin) return false;
+  return true;
 }
 
 }  // namespace
 
-Simulator::Simulator(MPI_Comm comm, const Scene& scene)
-    : comm_(comm),
-      scene_(scene),
-      world_(build_world(scene, contact_partition(scene, size_of(comm)), rank_of(comm))),
-      elastic_(std::make_unique<ElasticForces>(scene, world_)),
-      detector_(world_, collision_settings(scene)),
-      contact_(scene, world_) {
-  if (scene.sim.integrator == IntegratorKind::implicit_euler)
-    implicit_ = std::make_unique<ImplicitEuler>(scene, world_, *elastic_);
-  median_edge_ = median_edge_length(world_);
+std::vector<int> initial_partition(const Scene& scene, const std::vector<Surface>& surfaces, int nranks) {
+  const std::size_t no = scene.objects.size();
+  if (nranks <= 1) return std::vector<int>(no, 0);
+  PartitionInput in;
+  for (std::size_t k = 0; k < no; ++k) {
+    in.weight.push_back(object_work(scene, surfaces, k));
+    ObjectBox b = empty_box();
+    const TetMesh& m = scene.objects[k].mesh;
+    for (std::size_t v = 0; v < m.num_vertices(); ++v) add_point(b, &m.points[3 * v]);
+    in.box.push_back(b);
+  }
+  in.reach = median_object_size(in.box);
+  return partition_objects(in, nranks);
+}
+
+Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partition)
+    : comm_(comm), rank_(rank_of(comm)), nranks_(size_of(comm)), scene_(scene), surfaces_(extract_surfaces(scene)) {
+  partition_ = partition.empty() ? initial_partition(scene, surfaces_, nranks_) : std::move(partition);
+  if (partition_.size() != scene.objects.size())
+    throw RuntimeFailure("Simulator: the partition names " + std::to_string(partition_.size()) + " objects, the scene has " +
+                         std::to_string(scene.objects.size()));
+  for (int r : partition_)
+    if (r < 0 || r >= nranks_) throw RuntimeFailure("Simulator: the partition names rank " + std::to_string(r));
+  double mean_edge = 0;
+  scene_edge_lengths(scene, mean_edge, median_edge_);
+  // One cell size for every rank: detection's tolerances scale with it.
+  collision_settings_.self_collisions = scene.sim.self_collisions;
+  collision_settings_.cell_size = mean_edge > 0 ? mean_edge : 1.0;
+  skin_ = collision_settings_.cell_size;
+  world_ = build_world(scene, surfaces_, partition_, rank_);
+  build_components();
+  rebuild_ghosts(true);
   {
     CollisionStats st;
-    detector_.detect(world_, nullptr, residual_, st);
+    detector_->detect(world_, nullptr, residual_, st);
     // Overlaps between two fixed sides (walls built flush against a floor) exert no
     // force and move nothing: not worth a warning.
     auto movable = [&](index_t v) { return world_.inv_mass[static_cast<std::size_t>(v)] != 0; };
@@ -76,10 +135,109 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene)
       ++initial_overlaps_;
       initial_overlap_depth_ = std::max(initial_overlap_depth_, std::hypot(c.depth[0], c.depth[1], c.depth[2]));
     }
+    MPI_Allreduce(MPI_IN_PLACE, &initial_overlaps_, 1, MPI_INT64_T, MPI_SUM, comm_);
+    MPI_Allreduce(MPI_IN_PLACE, &initial_overlap_depth_, 1, MPI_DOUBLE, MPI_MAX, comm_);
   }
   compute_forces();
   start_integration(world_, scene.sim, f_);
+  if (halo_) halo_->update(world_.x_prev.data());
 }
+
+// Everything that depends on which objects this rank owns: forces and the implicit
+// solver (their rest shapes from world_.x, which must hold the scene's initial
+// positions here) and the contact solver.
+void Simulator::build_components() {
+  elastic_ = std::make_unique<ElasticForces>(scene_, world_);
+  implicit_.reset();
+  if (scene_.sim.integrator == IntegratorKind::implicit_euler)
+    implicit_ = std::make_unique<ImplicitEuler>(scene_, world_, *elastic_);
+  contact_ = std::make_unique<ContactSolver>(scene_, world_);
+}
+
+// The ghost set: every other rank's object whose box, grown by skin/2, overlaps the box
+// of one of ours grown likewise. While no owned vertex has moved skin/2 since, no
+// ghosted pair's boxes can have come to overlap at x~ without being ghosted: the set
+// stays valid (a Verlet list, as in molecular dynamics).
+void Simulator::rebuild_ghosts(bool force) {
+  if (nranks_ == 1) {
+    if (force || !detector_) make_detector();
+    f_.resize(3 * world_.n_local(), 0.0);
+    return;
+  }
+  const std::size_t no = scene_.objects.size();
+  std::vector<ObjectBox> box(no, empty_box());
+  for (int k : world_.owned_objects) {
+    const ObjectLayout& L = world_.layout[static_cast<std::size_t>(k)];
+    const auto off = static_cast<std::size_t>(world_.vertex_offset[static_cast<std::size_t>(k)]);
+    for (gid_t i = 0; i < L.vertex_count; ++i) add_point(box[static_cast<std::size_t>(k)], &world_.x[3 * (off + static_cast<std::size_t>(i))]);
+  }
+  // Every object has one owner: a max-reduction of the hi corners and a min of the lo
+  // corners assembles all boxes on every rank.
+  std::vector<double> lo(3 * no), hi(3 * no);
+  for (std::size_t k = 0; k < no; ++k)
+    for (int d = 0; d < 3; ++d) {
+      lo[3 * k + static_cast<std::size_t>(d)] = box[k].lo[d];
+      hi[3 * k + static_cast<std::size_t>(d)] = box[k].hi[d];
+    }
+  MPI_Allreduce(MPI_IN_PLACE, lo.data(), static_cast<int>(3 * no), MPI_DOUBLE, MPI_MIN, comm_);
+  MPI_Allreduce(MPI_IN_PLACE, hi.data(), static_cast<int>(3 * no), MPI_DOUBLE, MPI_MAX, comm_);
+  for (std::size_t k = 0; k < no; ++k)
+    for (int d = 0; d < 3; ++d) {
+      box[k].lo[d] = lo[3 * k + static_cast<std::size_t>(d)];
+      box[k].hi[d] = hi[3 * k + static_cast<std::size_t>(d)];
+    }
+  std::vector<int> ghosts;
+  for (std::size_t b = 0; b < no; ++b) {
+    if (partition_[b] == rank_ || !(box[b].lo[0] <= box[b].hi[0])) continue;
+    for (int a : world_.owned_objects)
+      if (grown_overlap(box[static_cast<std::size_t>(a)], box[b], skin_)) {
+        ghosts.push_back(static_cast<int>(b));
+        break;
+      }
+  }
+  int changed = force || ghosts != world_.ghost_objects ? 1 : 0;
+  MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_LOR, comm_);
+  x_at_ghosts_.assign(world_.x.begin(), world_.x.begin() + static_cast<std::ptrdiff_t>(3 * world_.n_owned));
+  if (!changed) return;
+  const bool local_change = force || ghosts != world_.ghost_objects || !detector_;
+  if (local_change) set_ghost_objects(world_, scene_, surfaces_, ghosts);
+  if (halo_) halo_bytes_before_ += halo_->bytes_received();
+  halo_ = std::make_unique<Halo>(comm_, world_);
+  halo_->update(world_.x.data());
+  halo_->update(world_.x_prev.data());
+  if (local_change) make_detector();
+  f_.resize(3 * world_.n_local(), 0.0);
+  ++ghost_rebuilds_;
+}
+
+void Simulator::make_detector() {
+  std::vector<double> rest(3 * world_.n_local());
+  for (std::size_t i = 0; i < world_.n_local(); ++i) {
+    const int k = world_.vertex_object[i];
+    const TetMesh& m = scene_.objects[static_cast<std::size_t>(k)].mesh;
+    const auto j = static_cast<std::size_t>(world_.vertex_gid[i] - world_.layout[static_cast<std::size_t>(k)].vertex_begin);
+    for (std::size_t d = 0; d < 3; ++d) rest[3 * i + d] = m.points[3 * j + d];
+  }
+  detector_ = std::make_unique<CollisionDetector>(world_, collision_settings_, rest.data());
+}
+
+// True (on every rank) when some owned vertex has moved skin/2 since the ghost set was
+// built.
+bool Simulator::ghosts_stale() {
+  double worst = 0;
+  const double* x = world_.x.data();
+  for (std::size_t k = 0; k < x_at_ghosts_.size(); k += 3) {
+    const double d2 = (x[k] - x_at_ghosts_[k]) * (x[k] - x_at_ghosts_[k]) +
+                      (x[k + 1] - x_at_ghosts_[k + 1]) * (x[k + 1] - x_at_ghosts_[k + 1]) +
+                      (x[k + 2] - x_at_ghosts_[k + 2]) * (x[k + 2] - x_at_ghosts_[k + 2]);
+    worst = std::max(worst, d2);
+  }
+  int stale = !(worst <= 0.25 * skin_ * skin_) ? 1 : 0;  // also for a non-finite position
+  MPI_Allreduce(MPI_IN_PLACE, &stale, 1, MPI_INT, MPI_LOR, comm_);
+  return stale != 0;
+}
+
+std::int64_t Simulator::halo_bytes() const { return halo_bytes_before_ + (halo_ ? halo_->bytes_received() : 0); }
 
 Simulator::~Simulator() = default;
 
@@ -135,6 +293,7 @@ void Simulator::compute_forces() {
 void Simulator::step() {
   const Simulation& sim = scene_.sim;
   const PhaseEvents& ev = phase_events();
+  maybe_rebalance();
   double t = MPI_Wtime();
   {
     PhaseLog log(ev, ev.forces);
@@ -151,9 +310,20 @@ void Simulator::step() {
   }
   times_.integrate += MPI_Wtime() - t;
 
+  if (halo_) {
+    // Ghost rows: x^t is what the last step ended with; x~ comes from the owners (and
+    // the ghost set is rebuilt when objects have moved far enough to need it).
+    t = MPI_Wtime();
+    std::copy(world_.x.begin() + static_cast<std::ptrdiff_t>(3 * world_.n_owned), world_.x.end(),
+              world_.x_prev.begin() + static_cast<std::ptrdiff_t>(3 * world_.n_owned));
+    if (ghosts_stale()) rebuild_ghosts(false);
+    else halo_->update(world_.x.data());
+    times_.comm += MPI_Wtime() - t;
+  }
+
   {
     PhaseLog log(ev, ev.collide);
-    detector_.detect(world_, world_.x_prev.data(), collisions_, collision_stats_);
+    detector_->detect(world_, world_.x_prev.data(), collisions_, collision_stats_);
   }
   times_.detect += collision_stats_.detection_seconds;
   times_.depth += collision_stats_.depth_seconds;
@@ -161,12 +331,187 @@ void Simulator::step() {
   t = MPI_Wtime();
   {
     PhaseLog log(ev, ev.contact);
-    contact_.respond(world_, collisions_, sim.dt, contact_stats_);
+    contact_->respond(world_, collisions_, sim.dt, contact_stats_, halo_.get());
   }
   times_.contact += MPI_Wtime() - t;
+  if (halo_) {
+    t = MPI_Wtime();
+    halo_->update(world_.x.data());  // the final positions, for the anchors and the next step
+    times_.comm += MPI_Wtime() - t;
+    contact_->update_anchors(world_, collisions_);
+    cross_collisions_ = 0;
+    for (const Collision& c : collisions_) cross_collisions_ += world_.owns_object(c.other_object) ? 0 : 1;
+  }
 
   ++step_;
   ++timed_steps_;
+}
+
+// Every check_every steps: repartition with METIS at the current boxes when the work per
+// rank (measured seconds of forces, detection and contact) is out of balance or too many
+// collisions cross ranks, and migrate the objects that change rank.
+void Simulator::maybe_rebalance() {
+  if (nranks_ == 1 || rebalance_.check_every <= 0 || step_ == 0 || step_ % rebalance_.check_every != 0) return;
+  const double work = times_.forces + times_.integrate + times_.detect + times_.depth + times_.contact;
+  double local[3] = {work - work_seconds_, static_cast<double>(cross_collisions_),
+                     static_cast<double>(collisions_.size())};
+  work_seconds_ = work;
+  double mx = 0, sum[3] = {0, 0, 0};
+  MPI_Allreduce(local, &mx, 1, MPI_DOUBLE, MPI_MAX, comm_);
+  MPI_Allreduce(local, sum, 3, MPI_DOUBLE, MPI_SUM, comm_);
+  const double imbalance = sum[0] > 0 ? mx / (sum[0] / nranks_) : 1;
+  const double cross = sum[2] > 0 ? sum[1] / sum[2] : 0;
+  // Both figures are reduced, so every rank takes the same decision.
+  if (!(imbalance > rebalance_.max_imbalance) && !(cross > rebalance_.max_cross_fraction)) return;
+  // Objects' boxes now, on every rank.
+  const std::size_t no = scene_.objects.size();
+  std::vector<double> lo(3 * no, std::numeric_limits<double>::infinity()), hi(3 * no, -std::numeric_limits<double>::infinity());
+  for (int k : world_.owned_objects) {
+    const ObjectLayout& L = world_.layout[static_cast<std::size_t>(k)];
+    const auto off = static_cast<std::size_t>(world_.vertex_offset[static_cast<std::size_t>(k)]);
+    for (gid_t i = 0; i < L.vertex_count; ++i)
+      for (int d = 0; d < 3; ++d) {
+        const double v = world_.x[3 * (off + static_cast<std::size_t>(i)) + static_cast<std::size_t>(d)];
+        lo[3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(d)] = std::min(lo[3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(d)], v);
+        hi[3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(d)] = std::max(hi[3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(d)], v);
+      }
+  }
+  MPI_Allreduce(MPI_IN_PLACE, lo.data(), static_cast<int>(3 * no), MPI_DOUBLE, MPI_MIN, comm_);
+  MPI_Allreduce(MPI_IN_PLACE, hi.data(), static_cast<int>(3 * no), MPI_DOUBLE, MPI_MAX, comm_);
+  PartitionInput in;
+  for (std::size_t k = 0; k < no; ++k) {
+    in.weight.push_back(object_work(scene_, surfaces_, k));
+    ObjectBox b;
+    for (int d = 0; d < 3; ++d) {
+      b.lo[d] = lo[3 * k + static_cast<std::size_t>(d)];
+      b.hi[d] = hi[3 * k + static_cast<std::size_t>(d)];
+      if (!std::isfinite(b.lo[d]) || !std::isfinite(b.hi[d])) b.lo[d] = b.hi[d] = 0;  // a blown-up object
+    }
+    in.box.push_back(b);
+  }
+  in.reach = median_object_size(in.box);
+  std::vector<int> next = partition_objects(in, nranks_);
+  // Keep objects where they are as far as the new parts allow: relabel each new part as
+  // the old rank it shares the most work with (greedy, heaviest overlaps first).
+  std::vector<std::vector<std::int64_t>> overlap(static_cast<std::size_t>(nranks_), std::vector<std::int64_t>(static_cast<std::size_t>(nranks_), 0));
+  for (std::size_t k = 0; k < no; ++k) overlap[static_cast<std::size_t>(next[k])][static_cast<std::size_t>(partition_[k])] += in.weight[k] + 1;
+  std::vector<int> label(static_cast<std::size_t>(nranks_), -1), taken(static_cast<std::size_t>(nranks_), 0);
+  for (int round = 0; round < nranks_; ++round) {
+    std::int64_t best = -1;
+    int bp = -1, br = -1;
+    for (int p = 0; p < nranks_; ++p)
+      for (int r = 0; r < nranks_; ++r)
+        if (label[static_cast<std::size_t>(p)] < 0 && !taken[static_cast<std::size_t>(r)] && overlap[static_cast<std::size_t>(p)][static_cast<std::size_t>(r)] > best) {
+          best = overlap[static_cast<std::size_t>(p)][static_cast<std::size_t>(r)];
+          bp = p;
+          br = r;
+        }
+    label[static_cast<std::size_t>(bp)] = br;
+    taken[static_cast<std::size_t>(br)] = 1;
+  }
+  for (int& p : next) p = label[static_cast<std::size_t>(p)];
+  std::int64_t moved = 0;
+  for (std::size_t k = 0; k < no; ++k) moved += next[k] != partition_[k] ? 1 : 0;
+  if (rank_ == 0)
+    std::cerr << "softcontact: step " << step_ << ": repartitioning (work imbalance " << imbalance
+              << ", cross-rank collisions " << cross * 100 << "%): " << moved << " of " << no << " objects move\n";
+  ++repartitions_;
+  if (moved > 0) migrate(next);
+}
+
+// Per vertex of a migrating object: what the next steps need.
+namespace {
+struct VertexState {
+  double x[3], x_prev[3], v[3];
+  StictionAnchor anchor;
+};
+}  // namespace
+
+void Simulator::migrate(const std::vector<int>& next) {
+  if (next.size() != partition_.size()) throw RuntimeFailure("migrate: the partition has the wrong size");
+  // Send every owned object that changes rank, whole, in ascending object order.
+  std::vector<std::vector<VertexState>> out(static_cast<std::size_t>(nranks_));
+  std::vector<StictionAnchor>& anchors = contact_->anchors();
+  for (int k : world_.owned_objects) {
+    const int to = next[static_cast<std::size_t>(k)];
+    if (to == rank_) continue;
+    const auto off = static_cast<std::size_t>(world_.vertex_offset[static_cast<std::size_t>(k)]);
+    for (gid_t i = 0; i < world_.layout[static_cast<std::size_t>(k)].vertex_count; ++i) {
+      const std::size_t v = off + static_cast<std::size_t>(i);
+      VertexState s;
+      for (int d = 0; d < 3; ++d) {
+        s.x[d] = world_.x[3 * v + static_cast<std::size_t>(d)];
+        s.x_prev[d] = world_.x_prev[3 * v + static_cast<std::size_t>(d)];
+        s.v[d] = world_.v[3 * v + static_cast<std::size_t>(d)];
+      }
+      s.anchor = anchors[v];
+      out[static_cast<std::size_t>(to)].push_back(s);
+    }
+  }
+  std::vector<int> scount(static_cast<std::size_t>(nranks_)), rcount(static_cast<std::size_t>(nranks_)),
+      sdisp(static_cast<std::size_t>(nranks_)), rdisp(static_cast<std::size_t>(nranks_));
+  std::vector<char> sbuf;
+  for (int r = 0; r < nranks_; ++r) {
+    sdisp[static_cast<std::size_t>(r)] = static_cast<int>(sbuf.size());
+    append_records(sbuf, out[static_cast<std::size_t>(r)].data(), out[static_cast<std::size_t>(r)].size());
+    scount[static_cast<std::size_t>(r)] = static_cast<int>(sbuf.size()) - sdisp[static_cast<std::size_t>(r)];
+  }
+  MPI_Alltoall(scount.data(), 1, MPI_INT, rcount.data(), 1, MPI_INT, comm_);
+  int total = 0;
+  for (int r = 0; r < nranks_; ++r) {
+    rdisp[static_cast<std::size_t>(r)] = total;
+    total += rcount[static_cast<std::size_t>(r)];
+  }
+  std::vector<char> rbuf(static_cast<std::size_t>(total));
+  MPI_Alltoallv(sbuf.data(), scount.data(), sdisp.data(), MPI_BYTE, rbuf.data(), rcount.data(), rdisp.data(), MPI_BYTE,
+                comm_);
+
+  World next_world = build_world(scene_, surfaces_, next, rank_);  // initial positions
+  std::vector<double> nx(3 * next_world.n_owned), nxp(3 * next_world.n_owned), nv(3 * next_world.n_owned);
+  std::vector<StictionAnchor> next_anchor(next_world.n_owned);
+  // Objects that stay: copy. Objects that arrive: from each sender's buffer, in
+  // ascending object order (the order they were packed in).
+  std::vector<std::size_t> read(static_cast<std::size_t>(nranks_), 0);
+  for (int k : next_world.owned_objects) {
+    const auto to = static_cast<std::size_t>(next_world.vertex_offset[static_cast<std::size_t>(k)]);
+    const gid_t count = next_world.layout[static_cast<std::size_t>(k)].vertex_count;
+    const int from = partition_[static_cast<std::size_t>(k)];
+    for (gid_t i = 0; i < count; ++i) {
+      const std::size_t v = to + static_cast<std::size_t>(i);
+      VertexState s;
+      if (from == rank_) {
+        const auto u = static_cast<std::size_t>(world_.vertex_offset[static_cast<std::size_t>(k)]) + static_cast<std::size_t>(i);
+        for (std::size_t d = 0; d < 3; ++d) {
+          s.x[d] = world_.x[3 * u + d];
+          s.x_prev[d] = world_.x_prev[3 * u + d];
+          s.v[d] = world_.v[3 * u + d];
+        }
+        s.anchor = anchors[u];
+      } else {
+        std::size_t& at = read[static_cast<std::size_t>(from)];
+        std::memcpy(&s, rbuf.data() + rdisp[static_cast<std::size_t>(from)] + at, sizeof(VertexState));
+        at += sizeof(VertexState);
+      }
+      for (std::size_t d = 0; d < 3; ++d) {
+        nx[3 * v + d] = s.x[d];
+        nxp[3 * v + d] = s.x_prev[d];
+        nv[3 * v + d] = s.v[d];
+      }
+      next_anchor[v] = s.anchor;
+    }
+  }
+  const std::int64_t anchor_step = contact_->anchor_step();
+  partition_ = next;
+  world_ = std::move(next_world);
+  detector_.reset();
+  halo_.reset();
+  build_components();  // rest shapes from the initial positions, then the state
+  std::copy(nx.begin(), nx.end(), world_.x.begin());
+  std::copy(nxp.begin(), nxp.end(), world_.x_prev.begin());
+  std::copy(nv.begin(), nv.end(), world_.v.begin());
+  contact_->anchors() = std::move(next_anchor);
+  contact_->set_anchor_step(anchor_step);
+  rebuild_ghosts(true);
 }
 
 void Simulator::measure(StepDiagnostics& d) {
@@ -177,18 +522,20 @@ void Simulator::measure(StepDiagnostics& d) {
   reduce_mechanics(comm_, scene_, world_, d, &em);
   // Residual penetration: detection again at the corrected positions.
   CollisionStats rs;
-  detector_.detect(world_, nullptr, residual_, rs);
+  detector_->detect(world_, nullptr, residual_, rs);
   double worst = 0;
   for (const Collision& c : residual_)
     worst = std::max(worst, std::hypot(c.depth[0], c.depth[1], c.depth[2]));
-  double local[2] = {worst / (median_edge_ > 0 ? median_edge_ : 1.0), contact_stats_.force_balance};
-  double global[2] = {0, 0};
-  MPI_Allreduce(local, global, 2, MPI_DOUBLE, MPI_MAX, comm_);
+  double local = worst / (median_edge_ > 0 ? median_edge_ : 1.0), global = 0;
+  MPI_Allreduce(&local, &global, 1, MPI_DOUBLE, MPI_MAX, comm_);
+  double sums[4] = {contact_stats_.force_sum[0], contact_stats_.force_sum[1], contact_stats_.force_sum[2],
+                    contact_stats_.force_abs_sum};
+  MPI_Allreduce(MPI_IN_PLACE, sums, 4, MPI_DOUBLE, MPI_SUM, comm_);
   std::int64_t contacts = collision_stats_.colliding_points, total = 0;
   MPI_Allreduce(&contacts, &total, 1, MPI_INT64_T, MPI_SUM, comm_);
   d.contacts = total;
-  d.residual_penetration = global[0];
-  d.contact_force_balance = global[1];
+  d.residual_penetration = global;
+  d.contact_force_balance = sums[3] > 0 ? std::hypot(sums[0], sums[1], sums[2]) / sums[3] : 0;
 }
 
 PhaseTimes Simulator::take_times(std::int64_t& steps) {

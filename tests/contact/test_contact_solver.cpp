@@ -19,6 +19,7 @@ World toy_world(const std::vector<double>& mass, const std::vector<bool>& fixed,
   const std::size_t n = mass.size();
   w.n_owned = n;
   w.layout.resize(objects);
+  w.vertex_offset.assign(objects, 0);  // every object starts at gid 0 = local 0 here
   for (std::size_t i = 0; i < n; ++i) {
     w.vertex_gid.push_back(static_cast<softcontact::gid_t>(i));
     w.vertex_object.push_back(0);

@@ -1,0 +1,86 @@
+#pragma once
+// Objects -> MPI ranks with METIS (design.md, "Parallel shape"): a graph whose nodes are
+// the objects, weighted by their work, with an edge between two objects whose bounding
+// boxes come within `reach` of each other, so that objects likely to touch share a rank
+// and few contacts cross ranks. Serial and deterministic: every rank computes the same
+// answer from the same (global) input, so nothing has to be communicated.
+#include <cstdint>
+#include <vector>
+
+namespace softcontact {
+
+/// Axis-aligned bounding box of one object [m].
+struct ObjectBox {
+  double lo[3], hi[3];
+};
+
+struct PartitionInput {
+  /// Per object: its work, >= 0 (tets; callers give kinematic objects a small weight).
+  /// Zero is allowed; METIS sees such an object as weight 1 (it has to land somewhere)
+  /// and the empty-rank rule below does not count it.
+  std::vector<std::int64_t> weight;
+  /// Per object: current bounding box (lo <= hi, finite).
+  std::vector<ObjectBox> box;
+  /// Objects whose boxes are at most this far apart on every axis (boxes grown by
+  /// reach/2 each overlap, closed intervals: touching boxes are joined even at 0) [m].
+  double reach = 0;
+};
+
+struct PartitionQuality {
+  double imbalance = 1;          ///< max part weight / mean part weight (1 is perfect)
+  std::int64_t cut_edges = 0;    ///< graph edges whose ends lie on different parts
+  std::int64_t cut_weight = 0;   ///< sum of their edge weights
+};
+
+/// One graph edge of the object graph, i < j, weight in [1, 101]:
+/// 1 + round(100 * (1 - gap / reach)), gap = largest per-axis distance between the two
+/// boxes (0 when they touch or overlap; 101 for every joined pair when reach == 0).
+struct ObjectEdge {
+  std::int32_t i, j;
+  std::int32_t weight;
+};
+
+/// The object graph's edges in ascending (i, j) order. Found by a sweep (sort by lo,
+/// scan forward while the next lo is within hi + reach) along the axis with the fewest
+/// candidate pairs, counted beforehand by binary search: O(n log n + candidate pairs),
+/// not O(n^2) unless the boxes really are all near each other along every axis.
+std::vector<ObjectEdge> object_graph_edges(const PartitionInput& in);
+
+/// Objects -> parts 0..nparts-1, identical on every rank and every call.
+///
+/// METIS_PartGraphKway on the object graph (edge-cut objective, default load tolerance
+/// ufactor 30, i.e. 1.03 plus the granularity of single objects, fixed
+/// METIS_OPTION_SEED, METIS_OPTION_NCUTS 4, C numbering, adjacency built in ascending
+/// object order). Recursive bisection (METIS_PartGraphRecursive) is not used, at any
+/// part count. Measured on random scenes of 100 objects, 2..8 parts, weights 1..1000:
+/// the better of one k-way and one recursive run cut 5% less than k-way alone, the best
+/// of four k-way runs 9% less; recursive bisection balanced worse from 5 parts up
+/// (imbalance up to 1.18 where k-way stayed below 1.09); and with heavy-tailed weights
+/// it left parts empty, printing "***Cannot bisect a graph with 0 vertices!" to stdout.
+///
+/// Before METIS, giants are peeled off: taking objects heaviest first (lowest index on
+/// ties), one whose weight is at least the mean weight per part of what is left (the
+/// total not yet peeled over the parts not yet given out) gets a part of its own, parts
+/// 0, 1, ... in that order, while two or more parts are left. Sharing its part could
+/// only raise the largest load; METIS, left to place it, bisects degenerate graphs (and
+/// prints "***Cannot bisect a graph with 0 vertices!" to stdout on every rank). The
+/// other objects go to the remaining parts by METIS on the graph they induce.
+///
+/// nparts == 1: all zeros. n <= nparts objects: object k on part k (so with fewer
+/// objects than parts, parts n..nparts-1 are empty). Objects without edges are placed
+/// by METIS like the others (balance only). If there are at least nparts objects of
+/// nonzero weight, no part is left without one: while a part is empty, the lightest
+/// nonzero object (lowest index on ties) of the heaviest part holding two or more of
+/// them (lowest part on ties) moves to the lowest-numbered empty part. Zero-weight
+/// objects do not count: a part may hold only those, or none.
+///
+/// Weights whose total would overflow METIS' idx_t are scaled down (each kept >= 1).
+/// Throws RuntimeFailure for malformed input (sizes, negative weight, non-finite or
+/// inverted box, nparts < 1) or when METIS fails.
+std::vector<int> partition_objects(const PartitionInput& in, int nparts);
+
+/// Imbalance (max part weight / mean part weight, with the weights as given; 1 when the
+/// total is 0) and edge cut of `part` on the graph of object_graph_edges(in).
+PartitionQuality partition_quality(const PartitionInput& in, const std::vector<int>& part, int nparts);
+
+}  // namespace softcontact
