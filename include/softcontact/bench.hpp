@@ -53,6 +53,14 @@ struct BenchResult {
   double loop_seconds = 0;       ///< wall time of the timed steps, barrier to barrier
   double rss_max_mib = 0, rss_mean_mib = 0;  ///< peak resident memory per rank (ru_maxrss)
   std::string omp_wait_policy;   ///< the OMP_WAIT_POLICY environment variable, or "default"
+  /// Halo traffic: bytes received per timed step by one rank (max and mean over ranks).
+  double halo_bytes_max = 0, halo_bytes_mean = 0;
+  /// Load imbalance: max over ranks / mean of the compute seconds (forces, integration,
+  /// detection, depth: the phases without communication) of the timed steps.
+  double compute_imbalance = 1;
+  /// Collision records whose triangle lies on another rank's object / all records.
+  double cross_rank_fraction = 0;
+  std::int64_t ghost_rebuilds = 0;  ///< ghost-set rebuilds during the timed steps (rank 0)
 
   // Summaries of `steps` (filled by run_bench; summarise() recomputes them).
   Spread collisions;

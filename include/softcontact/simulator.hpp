@@ -117,6 +117,8 @@ private:
   std::unique_ptr<Halo> halo_;
   CollisionSettings collision_settings_;
   double skin_ = 0;                  // ghost reach: objects closer than this are ghosted
+  double max_skin_ = 0;              // the skin's upper bound: the median object size
+  std::int64_t steps_since_ghosts_ = 0;
   std::vector<double> x_at_ghosts_;  // owned positions when the ghost set was built
   RebalancePolicy rebalance_;
   std::int64_t repartitions_ = 0, ghost_rebuilds_ = 0, cross_collisions_ = 0;

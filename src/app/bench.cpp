@@ -150,12 +150,15 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
 
   const double start = MPI_Wtime();
   double last_report = start, loop_start = start;
-  std::int64_t unused = 0;
+  std::int64_t unused = 0, bytes0 = 0, rebuilds0 = 0, cross = 0, records = 0;
+  double compute = 0;
   for (std::int64_t k = 1; k <= total_steps; ++k) {
     const bool timed = k > opt.warmup;
     if (k == opt.warmup + 1) {
       MPI_Barrier(comm);
       sim.take_times(unused);  // drop the warm-up's accumulated times
+      bytes0 = sim.halo_bytes();
+      rebuilds0 = sim.ghost_rebuilds();
       loop_start = MPI_Wtime();
     }
     const double s0 = MPI_Wtime();
@@ -168,6 +171,9 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
       secs[kD * i + kNumPhases] = wall;
       counts[2 * i] = sim.collision_stats().colliding_points;
       counts[2 * i + 1] = sim.collision_stats().collisions;
+      compute += p.forces + p.integrate + p.detect + p.depth;
+      cross += sim.cross_rank_collisions();
+      records += sim.collision_stats().collisions;
     }
     if (rank == 0 && !opt.quiet) {
       const double now = MPI_Wtime();
@@ -184,6 +190,21 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
   }
   MPI_Barrier(comm);
   r.loop_seconds = MPI_Wtime() - loop_start;
+  {
+    const double bytes = static_cast<double>(sim.halo_bytes() - bytes0) / static_cast<double>(n);
+    double bmax = bytes, bsum = bytes, cmax = compute, csum = compute;
+    MPI_Allreduce(MPI_IN_PLACE, &bmax, 1, MPI_DOUBLE, MPI_MAX, comm);
+    MPI_Allreduce(MPI_IN_PLACE, &bsum, 1, MPI_DOUBLE, MPI_SUM, comm);
+    MPI_Allreduce(MPI_IN_PLACE, &cmax, 1, MPI_DOUBLE, MPI_MAX, comm);
+    MPI_Allreduce(MPI_IN_PLACE, &csum, 1, MPI_DOUBLE, MPI_SUM, comm);
+    std::int64_t cr[2] = {cross, records};
+    MPI_Allreduce(MPI_IN_PLACE, cr, 2, MPI_INT64_T, MPI_SUM, comm);
+    r.halo_bytes_max = bmax;
+    r.halo_bytes_mean = bsum / size;
+    r.compute_imbalance = csum > 0 ? cmax / (csum / size) : 1;
+    r.cross_rank_fraction = cr[1] > 0 ? static_cast<double>(cr[0]) / static_cast<double>(cr[1]) : 0;
+    r.ghost_rebuilds = sim.ghost_rebuilds() - rebuilds0;
+  }
 
   MPI_Allreduce(MPI_IN_PLACE, secs.data(), static_cast<int>(secs.size()), MPI_DOUBLE, MPI_MAX, comm);
   MPI_Allreduce(MPI_IN_PLACE, counts.data(), static_cast<int>(counts.size()), MPI_INT64_T, MPI_SUM, comm);
@@ -242,6 +263,11 @@ void print_bench_table(std::ostream& out, const BenchResult& r) {
       << num(r.loop_seconds, 3) << " s)\n"
       << "  peak memory per rank (ru_maxrss): max " << fixed(r.rss_max_mib, 1) << " MiB, mean "
       << fixed(r.rss_mean_mib, 1) << " MiB\n";
+  if (r.ranks > 1)
+    out << "  halo traffic per step and rank: max " << fixed(r.halo_bytes_max / 1024, 1) << " KiB, mean "
+        << fixed(r.halo_bytes_mean / 1024, 1) << " KiB; ghost rebuilds " << r.ghost_rebuilds << "\n"
+        << "  load imbalance (compute, max/mean over ranks): " << fixed(r.compute_imbalance, 3)
+        << "; collisions crossing ranks: " << fixed(100 * r.cross_rank_fraction, 1) << "%\n";
 }
 
 std::string bench_csv_header() {
@@ -249,7 +275,8 @@ std::string bench_csv_header() {
       "timestamp,scene,path,ranks,threads,objects,vertices,tets,dt,warmup,steps,collisions_median,collisions_mean,"
       "collisions_max,total_ms_median,total_ms_mean";
   for (const PhaseColumn& p : kPhases) h += std::string(",") + p.column + "_ms_median," + p.column + "_ms_mean";
-  h += ",steps_per_second,setup_s,rss_max_mib,rss_mean_mib,omp_wait_policy";
+  h += ",steps_per_second,setup_s,rss_max_mib,rss_mean_mib,omp_wait_policy,halo_bytes_max,halo_bytes_mean,"
+       "compute_imbalance,cross_rank_fraction,ghost_rebuilds";
   return h;
 }
 
@@ -264,7 +291,9 @@ std::string bench_csv_row(const BenchResult& r) {
     s << ',' << num(1e3 * v.median) << ',' << num(1e3 * v.mean);
   }
   s << ',' << num(r.steps_per_second()) << ',' << num(r.setup_seconds) << ',' << num(r.rss_max_mib) << ','
-    << num(r.rss_mean_mib) << ',' << csv_field(r.omp_wait_policy);
+    << num(r.rss_mean_mib) << ',' << csv_field(r.omp_wait_policy) << ',' << num(r.halo_bytes_max) << ','
+    << num(r.halo_bytes_mean) << ',' << num(r.compute_imbalance) << ',' << num(r.cross_rank_fraction) << ','
+    << r.ghost_rebuilds;
   return s.str();
 }
 

@@ -284,10 +284,11 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
         << omp_get_max_threads() << " thread(s); dt = " << s.sim.dt << " s, " << total_steps(s.sim) << " steps\n"
         << std::flush;
   }
-  if (rank == 0 && size > 1)
-    err << "softcontact: warning: contacts between objects on different ranks need the halo exchange, which is "
-           "not built yet: every object runs on rank 0 and the other "
-        << size - 1 << " rank(s) only take part in output; use OpenMP threads (OMP_NUM_THREADS) for speed\n";
+  // Objects are the unit of distribution: ranks beyond the object count stay idle.
+  if (rank == 0 && static_cast<std::size_t>(size) > s.objects.size())
+    err << "softcontact: warning: " << size << " ranks for " << s.objects.size()
+        << " objects: objects are never split, so " << size - static_cast<int>(s.objects.size())
+        << " rank(s) will own nothing\n";
   const RunSummary r = run_scene(comm, s, opt, out);
   if (rank == 0) {
     out << "done: " << r.steps << " steps to t = " << r.sim_time << " s in " << std::setprecision(3) << r.wall_seconds

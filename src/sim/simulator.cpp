@@ -121,6 +121,15 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
   collision_settings_.self_collisions = scene.sim.self_collisions;
   collision_settings_.cell_size = mean_edge > 0 ? mean_edge : 1.0;
   skin_ = collision_settings_.cell_size;
+  {
+    std::vector<ObjectBox> boxes;
+    for (const SceneObject& o : scene.objects) {
+      ObjectBox b = empty_box();
+      for (std::size_t v = 0; v < o.mesh.num_vertices(); ++v) add_point(b, &o.mesh.points[3 * v]);
+      boxes.push_back(b);
+    }
+    max_skin_ = median_object_size(boxes);
+  }
   world_ = build_world(scene, surfaces_, partition_, rank_);
   build_components();
   rebuild_ghosts(true);
@@ -198,6 +207,7 @@ void Simulator::rebuild_ghosts(bool force) {
   int changed = force || ghosts != world_.ghost_objects ? 1 : 0;
   MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_LOR, comm_);
   x_at_ghosts_.assign(world_.x.begin(), world_.x.begin() + static_cast<std::ptrdiff_t>(3 * world_.n_owned));
+  steps_since_ghosts_ = 0;
   if (!changed) return;
   const bool local_change = force || ghosts != world_.ghost_objects || !detector_;
   if (local_change) set_ghost_objects(world_, scene_, surfaces_, ghosts);
@@ -222,7 +232,11 @@ void Simulator::make_detector() {
 }
 
 // True (on every rank) when some owned vertex has moved skin/2 since the ghost set was
-// built.
+// built. Before a rebuild, the skin adapts to how fast things move: wide enough for about
+// kStepsPerBuild steps at the observed largest speed, between the mean edge length and
+// the median object size (a rebuild costs a new halo graph and, where the ghost set
+// changed, a new detector; a wide skin costs ghost traffic). The reduced maximum is the
+// same on every rank, and the ghost set never changes results, only work.
 bool Simulator::ghosts_stale() {
   double worst = 0;
   const double* x = world_.x.data();
@@ -230,11 +244,17 @@ bool Simulator::ghosts_stale() {
     const double d2 = (x[k] - x_at_ghosts_[k]) * (x[k] - x_at_ghosts_[k]) +
                       (x[k + 1] - x_at_ghosts_[k + 1]) * (x[k + 1] - x_at_ghosts_[k + 1]) +
                       (x[k + 2] - x_at_ghosts_[k + 2]) * (x[k + 2] - x_at_ghosts_[k + 2]);
-    worst = std::max(worst, d2);
+    if (!(d2 <= worst)) worst = std::isnan(d2) ? std::numeric_limits<double>::infinity() : d2;
   }
-  int stale = !(worst <= 0.25 * skin_ * skin_) ? 1 : 0;  // also for a non-finite position
-  MPI_Allreduce(MPI_IN_PLACE, &stale, 1, MPI_INT, MPI_LOR, comm_);
-  return stale != 0;
+  MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_DOUBLE, MPI_MAX, comm_);
+  ++steps_since_ghosts_;
+  if (worst <= 0.25 * skin_ * skin_) return false;
+  constexpr double kStepsPerBuild = 40;
+  const double per_step = std::sqrt(worst) / static_cast<double>(steps_since_ghosts_);
+  if (std::isfinite(per_step))
+    skin_ = std::clamp(2 * kStepsPerBuild * per_step, collision_settings_.cell_size,
+                       std::max(collision_settings_.cell_size, max_skin_));
+  return true;
 }
 
 std::int64_t Simulator::halo_bytes() const { return halo_bytes_before_ + (halo_ ? halo_->bytes_received() : 0); }
