@@ -123,7 +123,7 @@ private:
   RebalancePolicy rebalance_;
   std::int64_t repartitions_ = 0, ghost_rebuilds_ = 0, cross_collisions_ = 0;
   std::int64_t halo_bytes_before_ = 0;  // of halos since replaced
-  double work_seconds_ = 0;          // compute time since the last rebalance check
+  double work_seconds_ = 0;          // forces, detection and depth seconds since the last rebalance check
   std::unique_ptr<ElasticForces> elastic_;
   std::unique_ptr<ImplicitEuler> implicit_;
   std::unique_ptr<CollisionDetector> detector_;
