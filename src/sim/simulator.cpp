@@ -11,23 +11,13 @@
 #include "softcontact/error.hpp"
 #include "softcontact/forces.hpp"
 #include "softcontact/halo.hpp"
+#include "softcontact/mpi_util.hpp"
 #include "softcontact/implicit_euler.hpp"
 #include "softcontact/integrator.hpp"
 
 namespace softcontact {
 
 namespace {
-
-int rank_of(MPI_Comm c) {
-  int r = 0;
-  MPI_Comm_rank(c, &r);
-  return r;
-}
-int size_of(MPI_Comm c) {
-  int s = 1;
-  MPI_Comm_size(c, &s);
-  return s;
-}
 
 constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
 
@@ -108,7 +98,7 @@ std::vector<int> initial_partition(const Scene& scene, const std::vector<Surface
 }
 
 Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partition)
-    : comm_(comm), rank_(rank_of(comm)), nranks_(size_of(comm)), scene_(scene), surfaces_(extract_surfaces(scene)) {
+    : comm_(comm), rank_(comm_rank(comm)), nranks_(comm_size(comm)), scene_(scene), surfaces_(extract_surfaces(scene)) {
   partition_ = partition.empty() ? initial_partition(scene, surfaces_, nranks_) : std::move(partition);
   if (partition_.size() != scene.objects.size())
     throw RuntimeFailure("Simulator: the partition names " + std::to_string(partition_.size()) + " objects, the scene has " +

@@ -12,23 +12,13 @@
 
 #include "softcontact/diagnostics.hpp"
 #include "softcontact/frame_writer.hpp"
+#include "softcontact/mpi_util.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/world.hpp"
 
 using namespace softcontact;
 
 namespace {
-
-int rank_of(MPI_Comm c) {
-  int r = 0;
-  MPI_Comm_rank(c, &r);
-  return r;
-}
-int size_of(MPI_Comm c) {
-  int s = 0;
-  MPI_Comm_size(c, &s);
-  return s;
-}
 
 Scene five_objects() {
   return load_scene_from_string(R"(
@@ -69,7 +59,7 @@ std::vector<T> read_all(hid_t file, const std::string& path, hid_t type, std::ve
 
 TEST(FrameWriter, OwnedRowsLandAtGlobalOffsetsAndXdmfReferencesExistingDatasets) {
   MPI_Comm comm = MPI_COMM_WORLD;
-  const int rank = rank_of(comm), size = size_of(comm);
+  const int rank = comm_rank(comm), size = comm_size(comm);
   const Scene scene = five_objects();
   World w = build_world(scene, block_partition(scene, size), rank);
   const World serial = build_world(scene, block_partition(scene, 1), 0);
@@ -164,7 +154,7 @@ TEST(FrameWriter, OwnedRowsLandAtGlobalOffsetsAndXdmfReferencesExistingDatasets)
 TEST(Diagnostics, ReductionDoesNotDependOnRankCount) {
   MPI_Comm comm = MPI_COMM_WORLD;
   const Scene scene = five_objects();
-  const World w = build_world(scene, block_partition(scene, size_of(comm)), rank_of(comm));
+  const World w = build_world(scene, block_partition(scene, comm_size(comm)), comm_rank(comm));
   StepDiagnostics d;
   reduce_mechanics(comm, scene, w, d);
   // Reference: serial world, summed per object then over objects, as the contract says.

@@ -15,23 +15,13 @@
 #include <unistd.h>
 
 #include "softcontact/run.hpp"
+#include "softcontact/mpi_util.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/simulator.hpp"
 
 using namespace softcontact;
 
 namespace {
-
-int rank_of(MPI_Comm c) {
-  int r = 0;
-  MPI_Comm_rank(c, &r);
-  return r;
-}
-int size_of(MPI_Comm c) {
-  int s = 0;
-  MPI_Comm_size(c, &s);
-  return s;
-}
 
 const Scene& pile() {
   static const Scene s = load_scene(std::string(SOFTCONTACT_TEST_DATA) + "/scenes/pile.yaml");
@@ -55,7 +45,7 @@ Snapshot gather(MPI_Comm comm, Simulator& sim) {
     for (int d = 0; d < 3; ++d) rows.push_back(w.x[3 * i + static_cast<std::size_t>(d)]);
     for (int d = 0; d < 3; ++d) rows.push_back(force[3 * i + static_cast<std::size_t>(d)]);
   }
-  const int n = size_of(comm);
+  const int n = comm_size(comm);
   int mine = static_cast<int>(rows.size());
   std::vector<int> counts(static_cast<std::size_t>(n)), disp(static_cast<std::size_t>(n));
   MPI_Gather(&mine, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm);
@@ -67,7 +57,7 @@ Snapshot gather(MPI_Comm comm, Simulator& sim) {
   std::vector<double> all(static_cast<std::size_t>(total));
   MPI_Gatherv(rows.data(), mine, MPI_DOUBLE, all.data(), counts.data(), disp.data(), MPI_DOUBLE, 0, comm);
   Snapshot s;
-  if (rank_of(comm) != 0) return s;
+  if (comm_rank(comm) != 0) return s;
   const auto nv = static_cast<std::size_t>(w.global_vertices);
   s.x.assign(3 * nv, 0.0);
   s.f.assign(3 * nv, 0.0);
@@ -86,7 +76,7 @@ const std::vector<Snapshot>& reference() {
   static std::vector<Snapshot> ref;
   static bool done = false;
   if (!done) {
-    if (rank_of(MPI_COMM_WORLD) == 0) {
+    if (comm_rank(MPI_COMM_WORLD) == 0) {
       omp_set_num_threads(1);
       Simulator sim(MPI_COMM_SELF, pile());
       for (int s = 1; s <= kSteps; ++s) {
@@ -115,11 +105,11 @@ void expect_identical(int threads, F&& between, std::int64_t* cross_out = nullpt
     between(sim, s);
     if (s % kEvery != 0) continue;
     const Snapshot got = gather(MPI_COMM_WORLD, sim);
-    if (rank_of(MPI_COMM_WORLD) == 0) {
+    if (comm_rank(MPI_COMM_WORLD) == 0) {
       ASSERT_EQ(got.x.size(), ref[k].x.size());
       // memcmp: bitwise, so that -0.0 against 0.0 or a NaN would count as a difference.
       EXPECT_EQ(std::memcmp(got.x.data(), ref[k].x.data(), got.x.size() * sizeof(double)), 0)
-          << "positions differ from one rank at step " << s << " (" << size_of(MPI_COMM_WORLD) << " ranks, " << threads
+          << "positions differ from one rank at step " << s << " (" << comm_size(MPI_COMM_WORLD) << " ranks, " << threads
           << " threads)";
       EXPECT_EQ(std::memcmp(got.f.data(), ref[k].f.data(), got.f.size() * sizeof(double)), 0)
           << "contact forces differ from one rank at step " << s;
@@ -138,8 +128,8 @@ TEST(Distributed, PileIsBitwiseIdenticalToOneRankOneThread) {
   expect_identical(1, [](Simulator&, int) {}, &cross);
   // The test means something only if contacts cross ranks: balls between boxes of
   // different ranks.
-  if (size_of(MPI_COMM_WORLD) > 1) EXPECT_GT(cross, 0) << "no collision crossed ranks: the test proves nothing";
-  if (rank_of(MPI_COMM_WORLD) == 0) std::cout << "[measured] cross-rank collision records over the run: " << cross << "\n";
+  if (comm_size(MPI_COMM_WORLD) > 1) EXPECT_GT(cross, 0) << "no collision crossed ranks: the test proves nothing";
+  if (comm_rank(MPI_COMM_WORLD) == 0) std::cout << "[measured] cross-rank collision records over the run: " << cross << "\n";
 }
 
 TEST(Distributed, PileWithTwoThreadsPerRankIsBitwiseIdentical) {
@@ -147,7 +137,7 @@ TEST(Distributed, PileWithTwoThreadsPerRankIsBitwiseIdentical) {
 }
 
 TEST(Distributed, MigrationDuringTheRunDoesNotChangeResults) {
-  const int n = size_of(MPI_COMM_WORLD);
+  const int n = comm_size(MPI_COMM_WORLD);
   std::int64_t migrations = 0;
   expect_identical(1, [&](Simulator& sim, int s) {
     if (s != 35 && s != 75) return;
@@ -166,7 +156,7 @@ TEST(Distributed, RebalancePolicyRepartitionsWithoutChangingResults) {
     if (s == 1) sim.set_rebalance_policy(RebalancePolicy{25, 0.0, 0.0});  // any imbalance triggers
     repartitions = sim.repartitions();
   });
-  if (size_of(MPI_COMM_WORLD) > 1) EXPECT_GE(repartitions, 4);
+  if (comm_size(MPI_COMM_WORLD) > 1) EXPECT_GE(repartitions, 4);
 }
 
 namespace {
@@ -202,7 +192,7 @@ std::vector<char> raw(hid_t file, const std::string& path, std::string& type_des
 }  // namespace
 
 TEST(Distributed, Hdf5WrittenByAllRanksEqualsOneRankDatasetByDataset) {
-  const int rank = rank_of(MPI_COMM_WORLD), n = size_of(MPI_COMM_WORLD);
+  const int rank = comm_rank(MPI_COMM_WORLD), n = comm_size(MPI_COMM_WORLD);
   long tag = rank == 0 ? static_cast<long>(getpid()) : 0;
   MPI_Bcast(&tag, 1, MPI_LONG, 0, MPI_COMM_WORLD);
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("sc_dist_" + std::to_string(tag));
