@@ -103,6 +103,7 @@ public:
 private:
   void compute_forces();
   void build_components();
+  std::vector<ObjectBox> current_boxes();
   void rebuild_ghosts(bool force);
   void make_detector();
   bool ghosts_stale();

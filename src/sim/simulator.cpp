@@ -82,17 +82,25 @@ bool grown_overlap(const ObjectBox& a, const ObjectBox& b, double margin) {
 
 }  // namespace
 
+namespace {
+// Each object's box at its initial positions.
+std::vector<ObjectBox> scene_boxes(const Scene& scene) {
+  std::vector<ObjectBox> boxes;
+  for (const SceneObject& o : scene.objects) {
+    ObjectBox b = empty_box();
+    for (std::size_t v = 0; v < o.mesh.num_vertices(); ++v) add_point(b, &o.mesh.points[3 * v]);
+    boxes.push_back(b);
+  }
+  return boxes;
+}
+}  // namespace
+
 std::vector<int> initial_partition(const Scene& scene, const std::vector<Surface>& surfaces, int nranks) {
   const std::size_t no = scene.objects.size();
   if (nranks <= 1) return std::vector<int>(no, 0);
   PartitionInput in;
-  for (std::size_t k = 0; k < no; ++k) {
-    in.weight.push_back(object_work(scene, surfaces, k));
-    ObjectBox b = empty_box();
-    const TetMesh& m = scene.objects[k].mesh;
-    for (std::size_t v = 0; v < m.num_vertices(); ++v) add_point(b, &m.points[3 * v]);
-    in.box.push_back(b);
-  }
+  for (std::size_t k = 0; k < no; ++k) in.weight.push_back(object_work(scene, surfaces, k));
+  in.box = scene_boxes(scene);
   in.reach = median_object_size(in.box);
   return partition_objects(in, nranks);
 }
@@ -111,15 +119,7 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
   collision_settings_.self_collisions = scene.sim.self_collisions;
   collision_settings_.cell_size = mean_edge > 0 ? mean_edge : 1.0;
   skin_ = collision_settings_.cell_size;
-  {
-    std::vector<ObjectBox> boxes;
-    for (const SceneObject& o : scene.objects) {
-      ObjectBox b = empty_box();
-      for (std::size_t v = 0; v < o.mesh.num_vertices(); ++v) add_point(b, &o.mesh.points[3 * v]);
-      boxes.push_back(b);
-    }
-    max_skin_ = median_object_size(boxes);
-  }
+  max_skin_ = median_object_size(scene_boxes(scene));
   world_ = build_world(scene, surfaces_, partition_, rank_);
   build_components();
   rebuild_ghosts(true);
@@ -153,6 +153,34 @@ void Simulator::build_components() {
   contact_ = std::make_unique<ContactSolver>(scene_, world_);
 }
 
+// Every object's box at the current positions, on every rank (collective). Every object
+// has one owner: a min-reduction of the lo corners and a max of the hi corners assembles
+// them. An object with a non-finite position has a box that compares false.
+std::vector<ObjectBox> Simulator::current_boxes() {
+  const std::size_t no = scene_.objects.size();
+  std::vector<ObjectBox> box(no, empty_box());
+  for (int k : world_.owned_objects) {
+    const ObjectLayout& L = world_.layout[static_cast<std::size_t>(k)];
+    const auto off = static_cast<std::size_t>(world_.vertex_offset[static_cast<std::size_t>(k)]);
+    for (gid_t i = 0; i < L.vertex_count; ++i)
+      add_point(box[static_cast<std::size_t>(k)], &world_.x[3 * (off + static_cast<std::size_t>(i))]);
+  }
+  std::vector<double> lo(3 * no), hi(3 * no);
+  for (std::size_t k = 0; k < no; ++k)
+    for (std::size_t d = 0; d < 3; ++d) {
+      lo[3 * k + d] = box[k].lo[d];
+      hi[3 * k + d] = box[k].hi[d];
+    }
+  MPI_Allreduce(MPI_IN_PLACE, lo.data(), static_cast<int>(3 * no), MPI_DOUBLE, MPI_MIN, comm_);
+  MPI_Allreduce(MPI_IN_PLACE, hi.data(), static_cast<int>(3 * no), MPI_DOUBLE, MPI_MAX, comm_);
+  for (std::size_t k = 0; k < no; ++k)
+    for (std::size_t d = 0; d < 3; ++d) {
+      box[k].lo[d] = lo[3 * k + d];
+      box[k].hi[d] = hi[3 * k + d];
+    }
+  return box;
+}
+
 // The ghost set: every other rank's object whose box, grown by skin/2, overlaps the box
 // of one of ours grown likewise. While no owned vertex has moved skin/2 since, no
 // ghosted pair's boxes can have come to overlap at x~ without being ghosted: the set
@@ -164,27 +192,7 @@ void Simulator::rebuild_ghosts(bool force) {
     return;
   }
   const std::size_t no = scene_.objects.size();
-  std::vector<ObjectBox> box(no, empty_box());
-  for (int k : world_.owned_objects) {
-    const ObjectLayout& L = world_.layout[static_cast<std::size_t>(k)];
-    const auto off = static_cast<std::size_t>(world_.vertex_offset[static_cast<std::size_t>(k)]);
-    for (gid_t i = 0; i < L.vertex_count; ++i) add_point(box[static_cast<std::size_t>(k)], &world_.x[3 * (off + static_cast<std::size_t>(i))]);
-  }
-  // Every object has one owner: a max-reduction of the hi corners and a min of the lo
-  // corners assembles all boxes on every rank.
-  std::vector<double> lo(3 * no), hi(3 * no);
-  for (std::size_t k = 0; k < no; ++k)
-    for (int d = 0; d < 3; ++d) {
-      lo[3 * k + static_cast<std::size_t>(d)] = box[k].lo[d];
-      hi[3 * k + static_cast<std::size_t>(d)] = box[k].hi[d];
-    }
-  MPI_Allreduce(MPI_IN_PLACE, lo.data(), static_cast<int>(3 * no), MPI_DOUBLE, MPI_MIN, comm_);
-  MPI_Allreduce(MPI_IN_PLACE, hi.data(), static_cast<int>(3 * no), MPI_DOUBLE, MPI_MAX, comm_);
-  for (std::size_t k = 0; k < no; ++k)
-    for (int d = 0; d < 3; ++d) {
-      box[k].lo[d] = lo[3 * k + static_cast<std::size_t>(d)];
-      box[k].hi[d] = hi[3 * k + static_cast<std::size_t>(d)];
-    }
+  const std::vector<ObjectBox> box = current_boxes();
   std::vector<int> ghosts;
   for (std::size_t b = 0; b < no; ++b) {
     if (partition_[b] == rank_ || !(box[b].lo[0] <= box[b].hi[0])) continue;
@@ -374,31 +382,14 @@ void Simulator::maybe_rebalance() {
   const double cross = sum[2] > 0 ? sum[1] / sum[2] : 0;
   // Both figures are reduced, so every rank takes the same decision.
   if (!(imbalance > rebalance_.max_imbalance) && !(cross > rebalance_.max_cross_fraction)) return;
-  // Objects' boxes now, on every rank.
   const std::size_t no = scene_.objects.size();
-  std::vector<double> lo(3 * no, std::numeric_limits<double>::infinity()), hi(3 * no, -std::numeric_limits<double>::infinity());
-  for (int k : world_.owned_objects) {
-    const ObjectLayout& L = world_.layout[static_cast<std::size_t>(k)];
-    const auto off = static_cast<std::size_t>(world_.vertex_offset[static_cast<std::size_t>(k)]);
-    for (gid_t i = 0; i < L.vertex_count; ++i)
-      for (int d = 0; d < 3; ++d) {
-        const double v = world_.x[3 * (off + static_cast<std::size_t>(i)) + static_cast<std::size_t>(d)];
-        lo[3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(d)] = std::min(lo[3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(d)], v);
-        hi[3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(d)] = std::max(hi[3 * static_cast<std::size_t>(k) + static_cast<std::size_t>(d)], v);
-      }
-  }
-  MPI_Allreduce(MPI_IN_PLACE, lo.data(), static_cast<int>(3 * no), MPI_DOUBLE, MPI_MIN, comm_);
-  MPI_Allreduce(MPI_IN_PLACE, hi.data(), static_cast<int>(3 * no), MPI_DOUBLE, MPI_MAX, comm_);
   PartitionInput in;
+  in.box = current_boxes();
   for (std::size_t k = 0; k < no; ++k) {
     in.weight.push_back(object_work(scene_, surfaces_, k));
-    ObjectBox b;
-    for (int d = 0; d < 3; ++d) {
-      b.lo[d] = lo[3 * k + static_cast<std::size_t>(d)];
-      b.hi[d] = hi[3 * k + static_cast<std::size_t>(d)];
-      if (!std::isfinite(b.lo[d]) || !std::isfinite(b.hi[d])) b.lo[d] = b.hi[d] = 0;  // a blown-up object
-    }
-    in.box.push_back(b);
+    for (int d = 0; d < 3; ++d)
+      if (!std::isfinite(in.box[k].lo[d]) || !std::isfinite(in.box[k].hi[d]) || !(in.box[k].lo[d] <= in.box[k].hi[d]))
+        in.box[k].lo[d] = in.box[k].hi[d] = 0;  // a blown-up object
   }
   in.reach = median_object_size(in.box);
   std::vector<int> next = partition_objects(in, nranks_);
