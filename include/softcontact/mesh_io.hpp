@@ -53,6 +53,12 @@ TetMesh read_mesh(const std::string& path, MeshReport* report = nullptr);
 TetMesh read_gmsh(const std::string& path, MeshReport* report = nullptr);
 TetMesh read_tetgen(const std::string& path, MeshReport* report = nullptr);
 
+/// The same readers on a file's bytes already in memory (tests, fuzzing, other sources);
+/// the names stand for the files in messages, nothing is opened.
+TetMesh read_gmsh_bytes(std::string_view bytes, const std::string& name, MeshReport* report = nullptr);
+TetMesh read_tetgen_bytes(std::string_view node_bytes, std::string_view ele_bytes, const std::string& node_name,
+                          const std::string& ele_name, MeshReport* report = nullptr);
+
 enum class GmshFormat { v22_ascii, v22_binary, v41_ascii, v41_binary };
 
 /// Writes the tets (element type 4) and their nodes; node tags 1..n, element tags 1..m.

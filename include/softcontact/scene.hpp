@@ -86,10 +86,21 @@ struct Simulation {
   double output_interval = 0;       ///< simulated seconds between frames
   std::string output_dir;           ///< relative to the working directory
   bool self_collisions = false;
+  // Checkpoints (docs/reliability.md): every N steps and/or every T wall minutes; the
+  // last `checkpoint_keep` are kept. 0 disables a trigger.
+  std::int64_t checkpoint_every = 0;
+  double checkpoint_minutes = 0;
+  std::int64_t checkpoint_keep = 2;
+  // Numerical-failure guard: the run stops when a vertex moves faster than max_speed
+  // [m/s] (0: 10 times the fastest dilatational wave speed of the scene's materials) or
+  // when more than max_inverted_fraction of the movable tets are inverted.
+  double max_speed = 0;
+  double max_inverted_fraction = 0.01;
 };
 
 struct Scene {
   std::string path;                  ///< the YAML file
+  std::string text;                  ///< its text as read (checkpoints carry it)
   Simulation sim;
   std::vector<Material> materials;
   Friction default_friction{0.5, 0.4};
@@ -101,12 +112,22 @@ struct Scene {
   std::size_t num_tets() const;
 };
 
+/// Bounds on the size of a scene, checked before a primitive is generated or an entry is
+/// copied, so that a mistyped resolution or instance count is an InputError instead of an
+/// exhausted memory. The defaults are what one rank can number with index_t (every rank
+/// holds the whole scene); tests and fuzzing pass smaller ones.
+struct SceneLimits {
+  std::int64_t max_vertices = std::numeric_limits<index_t>::max();  ///< all objects together
+  std::int64_t max_tets = std::numeric_limits<index_t>::max() / 4;  ///< all objects together
+  std::int64_t max_objects = std::numeric_limits<int>::max();       ///< copies of all entries
+};
+
 /// Reads, validates and instantiates a scene. Mesh paths are relative to the scene file.
 /// Throws InputError (file:line: what was expected) for anything invalid.
-Scene load_scene(const std::string& path);
+Scene load_scene(const std::string& path, const SceneLimits& limits = {});
 
 /// Same, from YAML text; `path` names it in messages and anchors relative mesh paths.
-Scene load_scene_from_string(const std::string& yaml, const std::string& path);
+Scene load_scene_from_string(const std::string& yaml, const std::string& path, const SceneLimits& limits = {});
 
 /// Largest time step for which the explicit integrators are guaranteed stable on the
 /// movable objects, linearised about their rest state: 2 / max over tets of omega_T, the

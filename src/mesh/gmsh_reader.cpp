@@ -778,9 +778,13 @@ void GmshReader::read_elements_41() {
 
 TetMesh read_gmsh(const std::string& path, MeshReport* report) {
   const std::string bytes = detail::read_file_bytes(path);
-  GmshReader reader(path, bytes);
+  return read_gmsh_bytes(bytes, path, report);
+}
+
+TetMesh read_gmsh_bytes(std::string_view bytes, const std::string& name, MeshReport* report) {
+  GmshReader reader(name, bytes);
   reader.parse();
-  MeshReport r = validate_mesh(reader.mesh, path, reader.element_ids);
+  MeshReport r = validate_mesh(reader.mesh, name, reader.element_ids);
   if (report) *report = std::move(r);
   return std::move(reader.mesh);
 }

@@ -30,7 +30,7 @@ constexpr std::int64_t kMaxIndex = std::numeric_limits<index_t>::max();
 // One TetGen file: records are the non-blank lines with '#' comments removed.
 class TetgenFile {
 public:
-  explicit TetgenFile(const std::string& path) : path_(path), bytes_(detail::read_file_bytes(path)), cur_(bytes_) {
+  TetgenFile(const std::string& path, std::string_view bytes) : path_(path), cur_(bytes) {
     if (cur_.data().starts_with("\xEF\xBB\xBF")) cur_.seek(3);  // UTF-8 byte order mark
   }
 
@@ -82,7 +82,6 @@ public:
 
 private:
   std::string path_;
-  std::string bytes_;
   TextCursor cur_;
   std::string_view line_text_;
 };
@@ -92,8 +91,8 @@ struct NodeFile {
   std::int64_t base = 0;  // index of the first point: 0 or 1
 };
 
-NodeFile read_node_file(const std::string& path) {
-  TetgenFile f(path);
+NodeFile read_node_file(const std::string& path, std::string_view bytes) {
+  TetgenFile f(path, bytes);
   std::vector<std::string_view> tok;
   f.expect_record(tok, "the header '<#points> <dimension> <#attributes> <boundary markers>'");
   if (tok.size() < 2 || tok.size() > 4)
@@ -148,9 +147,9 @@ NodeFile read_node_file(const std::string& path) {
   return out;
 }
 
-void read_ele_file(const std::string& path, const NodeFile& nodes, const std::string& node_path, TetMesh& mesh,
-                   std::vector<std::int64_t>& element_ids) {
-  TetgenFile f(path);
+void read_ele_file(const std::string& path, std::string_view bytes, const NodeFile& nodes, const std::string& node_path,
+                   TetMesh& mesh, std::vector<std::int64_t>& element_ids) {
+  TetgenFile f(path, bytes);
   std::vector<std::string_view> tok;
   f.expect_record(tok, "the header '<#tetrahedra> <nodes per tetrahedron> <#attributes>'");
   if (tok.size() < 2 || tok.size() > 3)
@@ -200,6 +199,24 @@ void read_ele_file(const std::string& path, const NodeFile& nodes, const std::st
            ": '" + f.text() + "'");
 }
 
+struct EleFile {
+  TetMesh mesh;  // tets only
+  std::vector<std::int64_t> element_ids;
+};
+
+EleFile read_ele(const std::string& path, std::string_view bytes, const NodeFile& nodes, const std::string& node_path) {
+  EleFile e;
+  read_ele_file(path, bytes, nodes, node_path, e.mesh, e.element_ids);
+  return e;
+}
+
+TetMesh finish_tetgen(const NodeFile& nodes, EleFile ele, const std::string& ele_path, MeshReport* report) {
+  ele.mesh.points = nodes.points;
+  MeshReport r = validate_mesh(ele.mesh, ele_path, ele.element_ids);
+  if (report) *report = std::move(r);
+  return std::move(ele.mesh);
+}
+
 }  // namespace
 
 TetMesh read_tetgen(const std::string& path, MeshReport* report) {
@@ -210,14 +227,18 @@ TetMesh read_tetgen(const std::string& path, MeshReport* report) {
   const std::string node_path = stem + ".node";
   const std::string ele_path = stem + ".ele";
 
-  const NodeFile nodes = read_node_file(node_path);
-  TetMesh mesh;
-  std::vector<std::int64_t> element_ids;
-  read_ele_file(ele_path, nodes, node_path, mesh, element_ids);
-  mesh.points = nodes.points;
-  MeshReport r = validate_mesh(mesh, ele_path, element_ids);
-  if (report) *report = std::move(r);
-  return mesh;
+  // The .node file is read and checked before the .ele file is opened, so that its errors
+  // come first.
+  const std::string node_bytes = detail::read_file_bytes(node_path);
+  const NodeFile nodes = read_node_file(node_path, node_bytes);
+  const std::string ele_bytes = detail::read_file_bytes(ele_path);
+  return finish_tetgen(nodes, read_ele(ele_path, ele_bytes, nodes, node_path), ele_path, report);
+}
+
+TetMesh read_tetgen_bytes(std::string_view node_bytes, std::string_view ele_bytes, const std::string& node_name,
+                          const std::string& ele_name, MeshReport* report) {
+  const NodeFile nodes = read_node_file(node_name, node_bytes);
+  return finish_tetgen(nodes, read_ele(ele_name, ele_bytes, nodes, node_name), ele_name, report);
 }
 
 }  // namespace softcontact

@@ -115,6 +115,7 @@ public:
   void check_keys(const YAML::Node& map, const std::vector<std::string>& allowed, const std::string& where) const {
     expect_map(map, where);
     for (auto it = map.begin(); it != map.end(); ++it) {
+      if (!it->first.IsScalar()) fail(it->first, "expected a plain key (a name) in " + where + ", got a list or mapping as key");
       const std::string key = it->first.Scalar();
       if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
       std::string msg = "unknown key '" + key + "' in " + where;
@@ -222,7 +223,8 @@ private:
 };
 
 void parse_simulation(const Reader& r, const YAML::Node& n, Simulation& sim) {
-  r.check_keys(n, {"dt", "dt_safety", "end_time", "steps", "gravity", "integrator", "output", "self_collisions"},
+  r.check_keys(n, {"dt", "dt_safety", "end_time", "steps", "gravity", "integrator", "output", "self_collisions",
+                   "checkpoint", "limits"},
                "'simulation'");
   if (const auto dt = n["dt"]) {
     if (dt.IsScalar() && dt.Scalar() == "auto") {
@@ -255,6 +257,20 @@ void parse_simulation(const Reader& r, const YAML::Node& n, Simulation& sim) {
     if (o["every"] && o["interval"]) r.fail(o["interval"], "give either 'every' (steps) or 'interval' (seconds) in 'output', not both");
     if (const auto e = o["every"]) sim.output_every = r.integer(e, "'output.every' (steps between frames)", 1, std::int64_t{1} << 40);
     if (const auto iv = o["interval"]) sim.output_interval = r.positive(iv, "'output.interval' (seconds between frames)");
+  }
+  if (const auto c = n["checkpoint"]) {
+    r.check_keys(c, {"every", "minutes", "keep"}, "'simulation.checkpoint'");
+    if (const auto e = c["every"]) sim.checkpoint_every = r.integer(e, "'checkpoint.every' (steps between checkpoints)", 1, std::int64_t{1} << 40);
+    if (const auto m = c["minutes"]) sim.checkpoint_minutes = r.positive(m, "'checkpoint.minutes' (wall minutes between checkpoints)");
+    if (const auto k = c["keep"]) sim.checkpoint_keep = r.integer(k, "'checkpoint.keep' (checkpoints kept)", 1, 1000);
+  }
+  if (const auto l = n["limits"]) {
+    r.check_keys(l, {"max_speed", "max_inverted_fraction"}, "'simulation.limits'");
+    if (const auto v = l["max_speed"]) sim.max_speed = r.positive(v, "'limits.max_speed' (m/s)");
+    if (const auto f = l["max_inverted_fraction"]) {
+      sim.max_inverted_fraction = r.positive(f, "'limits.max_inverted_fraction'");
+      if (sim.max_inverted_fraction > 1) r.fail(f, "'limits.max_inverted_fraction' must be in (0, 1], got " + f.Scalar());
+    }
   }
 }
 
@@ -330,7 +346,53 @@ void parse_friction(const Reader& r, const YAML::Node& n, Scene& scene) {
   }
 }
 
-TetMesh parse_primitive(const Reader& r, const YAML::Node& n, const std::string& where) {
+/// The scene's size so far against its SceneLimits. Sizes are doubles so that products of
+/// counts from the file (copies times tets) cannot overflow before they are compared.
+class SizeBudget {
+public:
+  explicit SizeBudget(const SceneLimits& limits) : limits_(limits) {}
+
+  /// Throws at `at` unless `copies` more objects of `vertices` and `tets` each fit.
+  void check(const Reader& r, const YAML::Node& at, const std::string& what, double copies, double vertices,
+             double tets) const {
+    if (objects_ + copies > static_cast<double>(limits_.max_objects)) {
+      std::ostringstream s;
+      s << what << " makes " << copies << " objects; with the " << objects_ << " before it that is more than the "
+        << limits_.max_objects << " objects a scene can hold";
+      r.fail(at, s.str());
+    }
+    if (vertices_ + copies * vertices > static_cast<double>(limits_.max_vertices) ||
+        tets_ + copies * tets > static_cast<double>(limits_.max_tets)) {
+      std::ostringstream s;
+      s.precision(15);
+      s << what << " gives " << copies * vertices << " vertices and " << copies * tets << " tets";
+      if (copies != 1) s << " (" << copies << " copies of " << vertices << " and " << tets << ")";
+      s << "; with the " << vertices_ << " and " << tets_ << " of the objects before it that is more than the "
+        << limits_.max_vertices << " vertices and " << limits_.max_tets << " tets a scene can hold";
+      r.fail(at, s.str());
+    }
+  }
+  void add(double copies, double vertices, double tets) {
+    objects_ += copies;
+    vertices_ += copies * vertices;
+    tets_ += copies * tets;
+  }
+
+private:
+  SceneLimits limits_;
+  double objects_ = 0, vertices_ = 0, tets_ = 0;
+};
+
+/// Vertex and tet counts of a disk/ball layout with `across` cells across (primitives.hpp).
+struct OGridSize {
+  double n, m;
+  explicit OGridSize(double across) {
+    m = std::max(1.0, std::floor((across + 2) / 4));
+    n = std::max(1.0, across - 2 * m);
+  }
+};
+
+TetMesh parse_primitive(const Reader& r, const YAML::Node& n, const std::string& where, const SizeBudget& budget) {
   r.expect_map(n, "'primitive' of " + where);
   const auto type_node = r.require(n, "type", "'primitive' of " + where);
   enum class P { box, plate, cylinder, sphere, torus };
@@ -338,9 +400,25 @@ TetMesh parse_primitive(const Reader& r, const YAML::Node& n, const std::string&
                              {{"box", P::box}, {"plate", P::plate}, {"membrane", P::plate},
                               {"cylinder", P::cylinder}, {"sphere", P::sphere}, {"torus", P::torus}});
   const std::string pw = "primitive '" + type_node.Scalar() + "' of " + where;
+  constexpr int kMaxCells = 4096;
   auto res = [&](const char* key, int dflt, int lo) {
-    return n[key] ? static_cast<int>(r.integer(n[key], std::string("'") + key + "' of " + pw, lo, 4096)) : dflt;
+    return n[key] ? static_cast<int>(r.integer(n[key], std::string("'") + key + "' of " + pw, lo, kMaxCells)) : dflt;
   };
+  // A cell count derived from a ratio of lengths (when not given), checked in double
+  // before it becomes an int: a thin torus or a needle-like cylinder could ask for any number.
+  auto derived = [&](const char* key, double cells, int lo, const char* from) {
+    if (n[key]) return res(key, lo, lo);
+    if (!(cells <= kMaxCells)) {
+      std::ostringstream s;
+      s.precision(15);
+      s << from << " of " << pw << " give " << cells << " cells for '" << key << "' (expected at most " << kMaxCells
+        << "); give '" << key << "' explicitly";
+      r.fail(n, s.str());
+    }
+    return std::max(lo, static_cast<int>(std::lround(cells)));
+  };
+  // Checked before the mesh is built (counts in primitives.hpp).
+  auto fits = [&](double vertices, double tets) { budget.check(r, n, pw, 1, vertices, tets); };
   try {
     switch (type) {
       case P::box: {
@@ -358,6 +436,8 @@ TetMesh parse_primitive(const Reader& r, const YAML::Node& n, const std::string&
           const double lmax = std::max({size[0], size[1], size[2]});
           for (int d = 0; d < 3; ++d) cells[d] = std::max(1, static_cast<int>(std::lround(k * size[d] / lmax)));
         }
+        const double cx = cells[0], cy = cells[1], cz = cells[2];
+        fits((cx + 1) * (cy + 1) * (cz + 1), 6 * cx * cy * cz);
         return make_box(size[0], size[1], size[2], cells[0], cells[1], cells[2]);
       }
       case P::plate: {
@@ -372,19 +452,27 @@ TetMesh parse_primitive(const Reader& r, const YAML::Node& n, const std::string&
           nx = static_cast<int>(r.integer(c[0], "'cells' of " + pw, 1, 4096));
           ny = static_cast<int>(r.integer(c[1], "'cells' of " + pw, 1, 4096));
         }
-        return make_box(lx, ly, t, nx, ny, res("layers", 1, 1));
+        const int layers = res("layers", 1, 1);
+        fits((nx + 1.0) * (ny + 1.0) * (layers + 1.0), 6.0 * nx * ny * layers);
+        return make_box(lx, ly, t, nx, ny, layers);
       }
       case P::cylinder: {
         r.check_keys(n, {"type", "radius", "height", "resolution", "axial"}, pw);
         const double rad = r.positive(r.require(n, "radius", pw), "'radius' of " + pw);
         const double h = r.positive(r.require(n, "height", pw), "'height' of " + pw);
         const int k = res("resolution", 3, 1);
-        const int ax = res("axial", std::max(1, static_cast<int>(std::lround(k * h / rad))), 1);
+        const int ax = derived("axial", k * h / rad, 1, "'resolution' * 'height' / 'radius'");
+        const OGridSize g(2.0 * k);
+        fits(((g.n + 1) * (g.n + 1) + 4 * g.n * g.m) * (ax + 1.0), 6 * (g.n * g.n + 4 * g.n * g.m) * ax);
         return make_cylinder(rad, h, k, ax);
       }
       case P::sphere: {
         r.check_keys(n, {"type", "radius", "resolution"}, pw);
-        return make_sphere(r.positive(r.require(n, "radius", pw), "'radius' of " + pw), res("resolution", 6, 2));
+        const double rad = r.positive(r.require(n, "radius", pw), "'radius' of " + pw);
+        const int k = res("resolution", 6, 2);
+        const OGridSize g(k);
+        fits((g.n + 1) * (g.n + 1) * (g.n + 1) + (6 * g.n * g.n + 2) * g.m, 6 * (g.n * g.n * g.n + 6 * g.n * g.n * g.m));
+        return make_sphere(rad, k);
       }
       case P::torus: {
         r.check_keys(n, {"type", "major_radius", "minor_radius", "resolution", "around"}, pw);
@@ -393,7 +481,9 @@ TetMesh parse_primitive(const Reader& r, const YAML::Node& n, const std::string&
         if (!(a < R)) r.fail(n["minor_radius"], "'minor_radius' of " + pw + " must be smaller than 'major_radius'");
         const int k = res("resolution", 4, 2);
         // cells around the ring so that they are about as long as across the tube
-        const int around = res("around", std::max(3, static_cast<int>(std::lround(M_PI * R * k / a))), 3);
+        const int around = derived("around", M_PI * R * k / a, 3, "pi * 'major_radius' * 'resolution' / 'minor_radius'");
+        const OGridSize g(k);
+        fits(((g.n + 1) * (g.n + 1) + 4 * g.n * g.m) * around, 6 * (g.n * g.n + 4 * g.n * g.m) * around);
         return make_torus(R, a, around, k);
       }
     }
@@ -404,7 +494,9 @@ TetMesh parse_primitive(const Reader& r, const YAML::Node& n, const std::string&
   r.fail(n, "unsupported primitive");
 }
 
-void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const std::filesystem::path& dir) {
+void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const std::filesystem::path& dir,
+                   const SceneLimits& limits) {
+  SizeBudget budget(limits);
   if (!list.IsSequence() || list.size() == 0) r.fail(list, "'objects' must be a non-empty list of objects");
   std::map<std::string, std::pair<TetMesh, MeshReport>> mesh_cache;  // a file instanced many times is read once
   int entry = 0;
@@ -433,7 +525,7 @@ void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const 
       spec.mesh = it->second.first;
       spec.source = rel;
     } else if (n["primitive"]) {
-      spec.mesh = parse_primitive(r, n["primitive"], where);
+      spec.mesh = parse_primitive(r, n["primitive"], where, budget);
       spec.source = "primitive " + n["primitive"]["type"].Scalar();
     } else {
       r.fail(n, where + " needs a 'mesh' file or a 'primitive'");
@@ -511,6 +603,14 @@ void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const 
         spec.instancing = EntrySpec::Instancing::random;
       }
     }
+    double copies = 1;
+    if (spec.instancing == EntrySpec::Instancing::grid)
+      copies = static_cast<double>(spec.grid_count[0]) * spec.grid_count[1] * spec.grid_count[2];
+    else if (spec.instancing == EntrySpec::Instancing::random)
+      copies = spec.random_count;
+    const double nv = static_cast<double>(spec.mesh.num_vertices()), nt = static_cast<double>(spec.mesh.num_tets());
+    budget.check(r, n, where, copies, nv, nt);
+    budget.add(copies, nv, nt);
     try {
       instantiate(spec, scene.objects);
     } catch (const InputError& e) {
@@ -520,9 +620,29 @@ void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const 
   }
 }
 
+/// Highest tet frequency of one object (tet_max_frequency); NaN when any tet's is NaN, so
+/// that the caller can reject it (std::max alone would drop a NaN).
+double max_tet_frequency(const SceneObject& o, const Material& mat) {
+  const TetMesh& m = o.mesh;
+  const std::ptrdiff_t nt = static_cast<std::ptrdiff_t>(m.num_tets());
+  double wmax = 0;
+  bool nan = false;
+  // A maximum is exact in any order: the result does not depend on the threads.
+#pragma omp parallel for schedule(static) reduction(max : wmax) reduction(|| : nan) if (nt > 1024)
+  for (std::ptrdiff_t t = 0; t < nt; ++t) {
+    double X[12];
+    for (int k = 0; k < 4; ++k)
+      for (int d = 0; d < 3; ++d) X[3 * k + d] = m.points[3 * static_cast<std::size_t>(m.tets[4 * t + k]) + d];
+    const double w = tet_max_frequency(X, mat);
+    nan = nan || std::isnan(w);
+    wmax = std::max(wmax, w);
+  }
+  return nan ? std::numeric_limits<double>::quiet_NaN() : wmax;
+}
+
 }  // namespace
 
-Scene load_scene_from_string(const std::string& yaml, const std::string& path) {
+Scene load_scene_from_string(const std::string& yaml, const std::string& path, const SceneLimits& limits) {
   Reader r(path);
   YAML::Node root;
   try {
@@ -535,6 +655,7 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path) {
 
   Scene scene;
   scene.path = path;
+  scene.text = yaml;
   parse_simulation(r, r.require(root, "simulation", "the scene"), scene.sim);
   const auto mats = r.require(root, "materials", "the scene");
   if (!mats.IsSequence() || mats.size() == 0) r.fail(mats, "'materials' must be a non-empty list");
@@ -548,7 +669,7 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path) {
   else scene.friction.assign(scene.materials.size(), std::vector<Friction>(scene.materials.size(), scene.default_friction));
 
   const std::filesystem::path dir = std::filesystem::path(path).parent_path();
-  parse_objects(r, r.require(root, "objects", "the scene"), scene, dir);
+  parse_objects(r, r.require(root, "objects", "the scene"), scene, dir, limits);
 
   // Implicit Euler needs a symmetric positive (semi-)definite stiffness: the linear model's
   // and the corotational model's warped one. The non-linear models' exact tangents are
@@ -563,8 +684,25 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path) {
                  "'; use integrator 'verlet' or 'symplectic_euler', or one of these models");
     }
 
-  // Time step: from the stability limit, or checked against it.
-  const double stable = stable_time_step(scene);
+  // Time step: from the stability limit, or checked against it. A movable object's
+  // highest tet frequency must be positive and finite: an overflowing stiffness (huge
+  // 'young', tiny 'density') or tets whose volume underflows (extreme 'size' ratios) give
+  // inf or NaN, and then no time step is stable.
+  double wmax = 0;
+  for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+    const SceneObject& o = scene.objects[i];
+    if (o.kinematic) continue;
+    const double w = max_tet_frequency(o, scene.materials[o.material]);
+    if (!(w > 0 && w < std::numeric_limits<double>::infinity())) {
+      std::ostringstream s;
+      s << "object '" << o.name << "' (material '" << scene.materials[o.material].name << "', " << o.source
+        << ") has a highest tet frequency of " << w << " rad/s, so no time step is stable (expected a positive finite "
+        << "value: check 'young' and 'density' and that its tets are not flattened to zero volume)";
+      r.fail(root["objects"], s.str());
+    }
+    wmax = std::max(wmax, w);
+  }
+  const double stable = wmax > 0 ? 2 / wmax : std::numeric_limits<double>::infinity();
   if (scene.sim.dt_auto) {
     if (!std::isfinite(stable))
       r.fail(root["simulation"], "'dt: auto' needs at least one movable object; give 'dt' in seconds");
@@ -575,37 +713,39 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path) {
       << " s (2 / the highest element frequency, docs/models.md); expect an unstable run, or use 'dt: auto'";
     scene.warnings.push_back(s.str());
   }
+  // Step counts are 64-bit integers downstream (total_steps, steps_between_frames).
+  constexpr double kMaxSteps = static_cast<double>(std::int64_t{1} << 40);
+  if (scene.sim.end_time && !(*scene.sim.end_time / scene.sim.dt <= kMaxSteps)) {
+    std::ostringstream s;
+    s << "'end_time' " << *scene.sim.end_time << " s with dt = " << scene.sim.dt << " s takes "
+      << *scene.sim.end_time / scene.sim.dt << " steps (expected at most 2^40; give a shorter 'end_time' or a larger 'dt')";
+    r.fail(root["simulation"]["end_time"], s.str());
+  }
+  if (scene.sim.output_interval > 0 && !(scene.sim.output_interval / scene.sim.dt <= kMaxSteps)) {
+    std::ostringstream s;
+    s << "'output.interval' " << scene.sim.output_interval << " s is " << scene.sim.output_interval / scene.sim.dt
+      << " steps of dt = " << scene.sim.dt << " s (expected at most 2^40)";
+    r.fail(root["simulation"]["output"]["interval"], s.str());
+  }
   if (scene.sim.output_dir.empty())
     scene.sim.output_dir = "output/" + std::filesystem::path(path).stem().string();
   return scene;
 }
 
-Scene load_scene(const std::string& path) {
+Scene load_scene(const std::string& path, const SceneLimits& limits) {
   std::ifstream in(path, std::ios::binary);
   if (!std::filesystem::exists(path)) throw InputError(path, 0, "scene file does not exist");
   if (std::filesystem::is_directory(path)) throw InputError(path, 0, "is a directory, expected a scene file (.yaml)");
   if (!in) throw InputError(path, 0, "cannot open the scene file for reading");
   std::ostringstream ss;
   ss << in.rdbuf();
-  return load_scene_from_string(ss.str(), path);
+  return load_scene_from_string(ss.str(), path, limits);
 }
 
 double stable_time_step(const Scene& scene) {
   double wmax = 0;
-  for (const auto& o : scene.objects) {
-    if (o.kinematic) continue;
-    const Material& mat = scene.materials[o.material];
-    const TetMesh& m = o.mesh;
-    const std::ptrdiff_t nt = static_cast<std::ptrdiff_t>(m.num_tets());
-    // A maximum is exact in any order: the result does not depend on the threads.
-#pragma omp parallel for schedule(static) reduction(max : wmax) if (nt > 1024)
-    for (std::ptrdiff_t t = 0; t < nt; ++t) {
-      double X[12];
-      for (int k = 0; k < 4; ++k)
-        for (int d = 0; d < 3; ++d) X[3 * k + d] = m.points[3 * static_cast<std::size_t>(m.tets[4 * t + k]) + d];
-      wmax = std::max(wmax, tet_max_frequency(X, mat));
-    }
-  }
+  for (const auto& o : scene.objects)
+    if (!o.kinematic) wmax = std::max(wmax, max_tet_frequency(o, scene.materials[o.material]));
   return wmax > 0 ? 2 / wmax : std::numeric_limits<double>::infinity();
 }
 

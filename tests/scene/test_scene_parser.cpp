@@ -371,3 +371,30 @@ TEST(SceneParser, PrimitiveArgumentsAreChecked) {
   expect_error(scene_with("  - material: rubber\n    primitive: {type: box, size: [1, 0, 1]}\n"), {"positive"});
   expect_error(scene_with("  - material: rubber\n"), {"needs a 'mesh' file or a 'primitive'"});
 }
+
+// Sizes are bounded before anything is built (found while fuzzing, tests/fuzz): a grid of
+// 10^15 copies, cell counts derived from extreme length ratios, step counts beyond int64.
+TEST(SceneParser, HugeScenesAreRejectedBeforeTheyAreBuilt) {
+  expect_error(scene_with("  - name: c\n    material: rubber\n    primitive: {type: box, size: [1, 1, 1], cells: [1, 1, 1]}\n"
+                          "    instances: {grid: {count: [100000, 100000, 100000], spacing: [2, 2, 2]}}\n"),
+               {"scene.yaml:", "object 'c' makes 1e+15 objects", "a scene can hold"});
+  expect_error(scene_with("  - name: t\n    material: rubber\n    primitive: {type: torus, major_radius: 1e300, minor_radius: 1e-300}\n"),
+               {"scene.yaml:", "cells for 'around'", "give 'around' explicitly"});
+  expect_error(scene_with("  - name: n\n    material: rubber\n    primitive: {type: cylinder, radius: 1e-300, height: 1e300}\n"),
+               {"scene.yaml:", "cells for 'axial'"});
+  expect_error(scene_with(kBox, "  dt: 1e-300\n  end_time: 1e300\n"), {"scene.yaml:", "steps (expected at most 2^40"});
+  SceneLimits small;
+  small.max_tets = 100;
+  try {
+    load_scene_from_string(scene_with("  - name: b\n    material: rubber\n    primitive: {type: box, size: [1, 1, 1], cells: [10, 10, 10]}\n"),
+                           "scene.yaml", small);
+    FAIL() << "expected an InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("6000 tets"), std::string::npos) << e.what();
+  }
+}
+
+TEST(SceneParser, ObjectsWithoutAStableTimeStepAreRejected) {
+  expect_error(scene_with("  - name: flat\n    material: rubber\n    primitive: {type: box, size: [1e-320, 1, 1e300]}\n"),
+               {"scene.yaml:", "object 'flat'", "no time step is stable"});
+}
