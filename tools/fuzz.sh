@@ -1,0 +1,121 @@
+#!/usr/bin/env bash
+# Fuzzing of the input readers with libFuzzer (tests/fuzz): builds the harnesses with
+# clang, -fsanitize=fuzzer,address,undefined into build-fuzz, replays the committed
+# corpus (tests/fuzz/corpus/<target>, which must pass), then fuzzes every target for a
+# while. Exits non-zero on any finding (crash, sanitizer report, exception other than
+# InputError, timeout, oversized allocation) and prints where the reproducer is.
+#
+# Usage: bash tools/fuzz.sh [--replay] [--seconds N] [--target NAME]
+#   --replay      only replay the corpus (no fuzzing)
+#   --seconds N   fuzz each target for N seconds (default 30)
+#   --target NAME only this target: scene, gmsh or tetgen (default: all)
+# Environment: FUZZ_BUILD_DIR (default build-fuzz), JOBS.
+#
+# New inputs the fuzzer finds go to build-fuzz/fuzz-work/<target>, not into the committed
+# corpus. To add them, minimised (the corpus should stay small):
+#   build-fuzz/fuzz/fuzz_T -merge=1 tests/fuzz/corpus/T build-fuzz/fuzz-work/T
+# A reproducer, once its bug is fixed, belongs in the corpus too (replayed on every run).
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+build=${FUZZ_BUILD_DIR:-$root/build-fuzz}
+jobs=${JOBS:-$(OMP_NUM_THREADS= nproc)}
+all_targets=(scene gmsh tetgen)
+
+replay_only=0 seconds=30 targets=("${all_targets[@]}")
+while [ $# -gt 0 ]; do
+  case $1 in
+    --replay) replay_only=1 ;;
+    --seconds) [ $# -ge 2 ] || { echo "fuzz.sh: --seconds expects a number" >&2; exit 2; }
+               seconds=$2; shift ;;
+    --seconds=*) seconds=${1#*=} ;;
+    --target) [ $# -ge 2 ] || { echo "fuzz.sh: --target expects one of: ${all_targets[*]}" >&2; exit 2; }
+              targets=("$2"); shift ;;
+    --target=*) targets=("${1#*=}") ;;
+    -h|--help) sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "fuzz.sh: unknown option '$1' (expected --replay, --seconds N, --target NAME)" >&2; exit 2 ;;
+  esac
+  shift
+done
+[[ $seconds =~ ^[0-9]+$ ]] && [ "$seconds" -gt 0 ] || { echo "fuzz.sh: --seconds expects a positive integer, got '$seconds'" >&2; exit 2; }
+for t in "${targets[@]}"; do
+  [[ " ${all_targets[*]} " == *" $t "* ]] || { echo "fuzz.sh: unknown target '$t' (expected one of: ${all_targets[*]})" >&2; exit 2; }
+done
+
+# clang with libFuzzer and the sanitizer runtimes, and clang's OpenMP runtime.
+packages=(clang libclang-rt-14-dev libomp-14-dev)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "fuzz.sh: installing ${missing[*]}"
+  sudo=""
+  if [ "$(id -u)" != 0 ]; then
+    command -v sudo >/dev/null || { echo "fuzz.sh: need root (or sudo) to install: ${missing[*]}" >&2; exit 1; }
+    sudo=sudo
+  fi
+  export DEBIAN_FRONTEND=noninteractive
+  $sudo apt-get update -qq
+  $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# The whole library instrumented for coverage (fuzzer-no-link) and checked by ASan and
+# UBSan; only the harnesses link libFuzzer's main (tests/fuzz/CMakeLists.txt).
+flags="-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
+cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+      -DCMAKE_C_FLAGS="$flags" -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" \
+      -DSOFTCONTACT_WITH_TESTS=OFF -DSOFTCONTACT_FUZZ=ON >/dev/null
+cmake --build "$build" -j "$jobs" --target $(printf 'fuzz_%s ' "${targets[@]}")
+
+export ASAN_OPTIONS=${ASAN_OPTIONS:-abort_on_error=1:detect_leaks=1}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+export OMP_NUM_THREADS=1
+# -timeout: one input; -rss_limit_mb: the whole process; -malloc_limit_mb: any single
+# allocation (the readers must refuse counts their input cannot hold before reserving).
+limits=(-timeout=5 -rss_limit_mb=2048 -malloc_limit_mb=256)
+findings=$build/findings
+status=0
+
+report() {  # target, log: print the reproducer libFuzzer wrote, and how to replay it
+  local t=$1 log=$2 repro
+  repro=$(grep -oE "Test unit written to [^ ]+" "$log" | tail -1 | sed 's/Test unit written to //') || true
+  echo "fuzz.sh: FINDING in target '$t' (log: $log)"
+  grep -E "ERROR: |fuzz: |SUMMARY: |runtime error" "$log" | head -5 | sed 's/^/  /' || true
+  if [ -n "$repro" ]; then
+    echo "  reproducer: $repro"
+    echo "  replay:     $build/fuzz/fuzz_$t $repro"
+  fi
+  status=1
+}
+
+for t in "${targets[@]}"; do
+  exe=$build/fuzz/fuzz_$t
+  corpus=$root/tests/fuzz/corpus/$t
+  mkdir -p "$findings/$t"
+  log=$findings/$t/replay.log
+  n=$(find "$corpus" -type f | wc -l)
+  start=$(date +%s)
+  # -runs=0: run every corpus file once, mutate nothing.
+  if "$exe" "${limits[@]}" -runs=0 -artifact_prefix="$findings/$t/" "$corpus" >"$log" 2>&1; then
+    echo "fuzz.sh: $t: replayed $n corpus files, no finding ($(( $(date +%s) - start )) s)"
+  else
+    report "$t" "$log"
+  fi
+done
+
+if [ "$replay_only" = 0 ] && [ "$status" = 0 ]; then
+  for t in "${targets[@]}"; do
+    exe=$build/fuzz/fuzz_$t
+    work=$build/fuzz-work/$t
+    mkdir -p "$work" "$findings/$t"
+    log=$findings/$t/fuzz.log
+    # New inputs go to the work directory; the committed corpus is only read.
+    if "$exe" "${limits[@]}" -max_total_time="$seconds" -print_final_stats=1 -artifact_prefix="$findings/$t/" \
+         "$work" "$root/tests/fuzz/corpus/$t" >"$log" 2>&1; then
+      echo "fuzz.sh: $t: fuzzed $seconds s, $(grep -oE 'stat::number_of_executed_units: *[0-9]+' "$log" | grep -oE '[0-9]+$' || echo '?') inputs, no finding"
+    else
+      report "$t" "$log"
+    fi
+  done
+fi
+exit "$status"

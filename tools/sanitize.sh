@@ -1,0 +1,71 @@
+#!/usr/bin/env bash
+# The test suite under AddressSanitizer and UndefinedBehaviorSanitizer: builds the unit
+# and MPI test executables and the command-line program with g++ -O1 -g
+# -fsanitize=address,undefined -fno-sanitize-recover=undefined into build-asan, then runs
+# ctest on them (labels unit, mpi, cli by default, without cli.reliability, whose kills
+# and signals test the process, not memory). Any sanitizer report fails its test.
+#
+# Usage: bash tools/sanitize.sh [ctest arguments]     (default: -L 'unit|mpi|cli' -E '^cli[.]reliability$')
+# Environment: ASAN_BUILD_DIR (default build-asan), JOBS.
+#
+# Leaks: Open MPI (and the PMIx/hwloc/libevent libraries under it) keeps allocations it
+# never frees, by design, until the process exits; every test executable here starts MPI
+# (tests/test_main.cpp), so LeakSanitizer would fail each of them on memory we cannot
+# free. tools/lsan.supp suppresses leaks whose allocation stack goes through those
+# libraries only; leak checking stays on for our own code, in every test.
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+build=${ASAN_BUILD_DIR:-$root/build-asan}
+jobs=${JOBS:-$(OMP_NUM_THREADS= nproc)}
+[ $# -eq 0 ] && set -- -L 'unit|mpi|cli' -E '^cli[.]reliability$'
+
+# The same Debian packages as tools/setup.sh (g++ brings the sanitizer runtimes).
+packages=(g++ make cmake pkg-config libopenmpi-dev openmpi-bin petsc-dev libmetis-dev libhdf5-openmpi-dev
+          libeigen3-dev libyaml-cpp-dev libgtest-dev)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "sanitize.sh: installing ${missing[*]}"
+  sudo=""
+  if [ "$(id -u)" != 0 ]; then
+    command -v sudo >/dev/null || { echo "sanitize.sh: need root (or sudo) to install: ${missing[*]}" >&2; exit 1; }
+    sudo=sudo
+  fi
+  export DEBIAN_FRONTEND=noninteractive
+  $sudo apt-get update -qq
+  $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# The sanitizer options hold while the build runs too: gtest_discover_tests runs the
+# test executables to list their tests.
+# fast_unwind_on_malloc=0: Open MPI's libraries have no frame pointers, and the fast
+# unwinder then stops inside them, leaving "<unknown module>" stacks that no suppression
+# can match. Components stay loaded (no dlclose) so that their frames keep their names.
+export ASAN_OPTIONS=${ASAN_OPTIONS:-abort_on_error=1:detect_leaks=1:strict_init_order=1:fast_unwind_on_malloc=0}
+export OMPI_MCA_mca_base_component_disable_dlclose=1 PMIX_MCA_mca_base_component_disable_dlclose=1
+export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$root/tools/lsan.supp:print_suppressions=0}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+# Open MPI's shared-memory transport maps segments that ASan's allocator does not know;
+# single-copy (CMA) transfers between ranks read memory outside our process, which ASan
+# cannot track either. Use the plain copy-in/copy-out path.
+export OMPI_MCA_btl_vader_single_copy_mechanism=none
+source "$root/tools/env.sh"
+
+flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
+cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=gcc -DCMAKE_CXX_COMPILER=g++ \
+      -DCMAKE_C_FLAGS="$flags" -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g -DNDEBUG" \
+      -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" -DSOFTCONTACT_WITH_TESTS=ON >/dev/null
+start=$(date +%s)
+cmake --build "$build" -j "$jobs" --target softcontact_tests softcontact_mpi_tests softcontact_exe
+echo "sanitize.sh: build took $(( $(date +%s) - start )) s"
+
+cores=$(OMP_NUM_THREADS= nproc)
+cd "$build"
+start=$(date +%s)
+rc=0
+# The 'sanitize' tests would run this script again: never inside it.
+ctest --output-on-failure -j "$cores" -LE 'sanitize|long|render|validation' "$@" || rc=$?
+echo "sanitize.sh: ctest took $(( $(date +%s) - start )) s"
+exit "$rc"
