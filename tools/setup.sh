@@ -9,7 +9,7 @@ type=${BUILD_TYPE:-Release}
 jobs=${JOBS:-$(nproc)}
 
 packages=(g++ make cmake pkg-config libopenmpi-dev openmpi-bin petsc-dev libmetis-dev libhdf5-openmpi-dev
-          libeigen3-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev)
+          libeigen3-dev libyaml-cpp-dev libgtest-dev libbenchmark-dev python3-h5py python3-numpy)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -49,6 +49,9 @@ class DiagnosticsCsv {
 public:
   DiagnosticsCsv() = default;
   void open(const std::string& path);
+  /// Continues an earlier run's file (restart): keeps the header and the complete rows up
+  /// to step `last_step`, drops later or torn ones, then appends. A missing file starts anew.
+  void resume(const std::string& path, std::int64_t last_step);
   void write(const StepDiagnostics& d);
   static const char* header();
 

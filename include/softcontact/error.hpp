@@ -37,6 +37,17 @@ public:
   using std::runtime_error::runtime_error;
 };
 
+/// Exit status when the numerical-failure guard stops a run (docs/reliability.md).
+inline constexpr int kExitNumericalFailure = 3;
+
+/// The simulation became unphysical (non-finite positions, runaway speed or energy,
+/// inverted elements). Thrown on every rank together, with the same message: where
+/// (step, object, element) and what to try.
+class NumericalFailure : public RuntimeFailure {
+public:
+  using RuntimeFailure::RuntimeFailure;
+};
+
 }  // namespace softcontact
 
 #ifndef NDEBUG

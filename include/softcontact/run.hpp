@@ -8,6 +8,7 @@
 #include <optional>
 #include <string>
 
+#include "softcontact/checkpoint.hpp"
 #include "softcontact/scene.hpp"
 
 namespace softcontact {
@@ -18,9 +19,24 @@ struct RunOptions {
   std::optional<double> end_time;
   std::optional<std::string> output_dir;
   std::optional<std::int64_t> output_every;
+  std::optional<std::int64_t> checkpoint_every;   ///< steps between checkpoints
+  std::optional<double> checkpoint_minutes;       ///< wall minutes between checkpoints
   bool overwrite = false;
   bool quiet = false;
 };
+
+/// Where a restarted run continues: the checkpoint, read and checked against its scene.
+struct RestartPoint {
+  std::string path;        ///< the checkpoint file
+  CheckpointInfo info;
+  std::string output_dir;  ///< the run's output directory, which a restart continues
+};
+
+/// Reads checkpoint `path` (a file, or a directory: its newest checkpoint) and the scene
+/// it carries, with the run's settings (steps, frames, output directory) as they were;
+/// `opt` then overrides them like a scene. Throws InputError when the checkpoint is not
+/// readable or the scene's meshes have changed since. Collective.
+Scene load_restart(MPI_Comm comm, const std::string& path, RestartPoint& restart);
 
 struct RunSummary {
   std::int64_t steps = 0;
@@ -28,6 +44,9 @@ struct RunSummary {
   double wall_seconds = 0;
   std::int64_t frames = 0;
   std::string h5, xdmf, csv;
+  std::int64_t first_step = 0;       ///< step the run started from (a restart's checkpoint step)
+  std::string last_checkpoint;       ///< the newest checkpoint written ("" when none)
+  std::string stopped_by;            ///< "SIGTERM" / "SIGINT" when a signal ended the run early
 };
 
 /// Applies the overrides to the scene's simulation settings.
@@ -42,7 +61,11 @@ inline constexpr const char* kDiagnosticsCsv = "diagnostics.csv";
 /// `overwrite` is set; throws InputError otherwise. Collective.
 void check_output_dir(MPI_Comm comm, const std::string& dir, bool overwrite);
 
-/// Runs the scene. Collective over `comm`; progress and summary go to `log` on rank 0.
-RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, std::ostream& log);
+/// Runs the scene, or continues it from `restart`. Collective over `comm`; progress and
+/// summary go to `log` on rank 0. SIGTERM and SIGINT end the run after the current step
+/// with a checkpoint (RunSummary::stopped_by). Throws NumericalFailure (every rank) when
+/// the run becomes unphysical; the last good checkpoint stays.
+RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, std::ostream& log,
+                     const RestartPoint* restart = nullptr);
 
 }  // namespace softcontact

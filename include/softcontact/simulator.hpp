@@ -41,6 +41,11 @@ struct RebalancePolicy {
 /// between objects closer than the median object size. Identical on every rank.
 std::vector<int> initial_partition(const Scene& scene, const std::vector<Surface>& surfaces, int nranks);
 
+/// The same partition at the object boxes `boxes` (objects that have moved; a box with
+/// a non-finite corner counts as a point at the origin). Identical on every rank.
+std::vector<int> partition_at(const Scene& scene, const std::vector<Surface>& surfaces, std::vector<ObjectBox> boxes,
+                              int nranks);
+
 class Simulator {
 public:
   /// Builds this rank's World (objects partitioned over the ranks of `comm` with METIS,
@@ -90,6 +95,34 @@ public:
   /// positions, velocities, friction anchors); the results of later steps do not change.
   /// Collective, between steps.
   void migrate(const std::vector<int>& partition);
+
+  /// Friction anchors per owned vertex and the contact solver's step counter: the state
+  /// a checkpoint carries besides positions and velocities.
+  std::vector<StictionAnchor>& anchors();
+  std::int64_t anchor_step() const;
+  /// After the owned rows of world().x, x_prev, v and anchors() were overwritten with a
+  /// checkpoint's state: continue at `step` (ghosts and halo rebuilt). Collective.
+  void resume(std::int64_t step, std::int64_t anchor_step);
+  /// Every object's box at the current positions (collective).
+  std::vector<ObjectBox> current_boxes();
+  // ---- numerical-failure guard (health.cpp, docs/reliability.md)
+  /// This rank's quick check after a step, no communication: 0 fine, 1 an owned vertex
+  /// moves faster than `max_speed`, 2 a non-finite position or velocity.
+  int local_health(double max_speed) const;
+  /// After local_health() reported a problem on some rank: where it is (the vertex with
+  /// the lowest global id that is non-finite, or the fastest one), as one message on
+  /// every rank. Collective.
+  std::string diagnose(int code, double max_speed);
+  /// Counts inverted tets (det F <= 0) of movable objects; when more than
+  /// `max_fraction` of them are, returns a message naming the first (lowest global id).
+  /// Collective.
+  std::string check_inversions(double max_fraction);
+  /// A message naming the object with the most kinetic energy and its fastest vertex, for
+  /// a run whose energy exploded. Collective.
+  std::string locate_energy();
+
+  /// The scene's surfaces (per object).
+  const std::vector<Surface>& surfaces() const { return surfaces_; }
   void set_rebalance_policy(const RebalancePolicy& p) { rebalance_ = p; }
   /// Repartitions done by the rebalance policy so far.
   std::int64_t repartitions() const { return repartitions_; }
@@ -103,7 +136,6 @@ public:
 private:
   void compute_forces();
   void build_components();
-  std::vector<ObjectBox> current_boxes();
   void rebuild_ghosts(bool force);
   void make_detector();
   bool ghosts_stale();

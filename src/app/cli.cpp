@@ -49,11 +49,13 @@ const char* kMainHelp =
     "  -h, --help         this help; 'softcontact COMMAND --help' for a command's options\n"
     "  --version          print the version\n"
     "\n"
-    "exit status: 0 success, 1 the run failed, 2 bad input (scene, mesh, command line)\n"
+    "exit status: 0 success (also a run stopped by SIGTERM/SIGINT after writing a checkpoint),\n"
+    "1 the run failed, 2 bad input (scene, mesh, command line, checkpoint), 3 numerical failure\n"
     "PETSc options (e.g. -log_view) are read from the PETSC_OPTIONS environment variable.\n";
 
 const char* kRunHelp =
     "usage: mpirun -n RANKS softcontact run SCENE.yaml [options]\n"
+    "       mpirun -n RANKS softcontact run --restart CHECKPOINT [options]\n"
     "\n"
     "Runs the scene and writes, in the output directory (scene 'simulation.output.directory',\n"
     "default output/<scene name>): frames.h5 and frames.xdmf (open the .xdmf in ParaView),\n"
@@ -64,8 +66,17 @@ const char* kRunHelp =
     "  --output DIR       output directory\n"
     "  --output-every K   steps between output frames (replaces output every/interval)\n"
     "  --overwrite        replace the results in an existing output directory\n"
+    "  --checkpoint-every N    write a checkpoint every N steps (scene 'simulation.checkpoint.every')\n"
+    "  --checkpoint-minutes T  ... and/or every T minutes of wall time ('checkpoint.minutes')\n"
+    "  --restart FILE|DIR continue a run from a checkpoint (or the newest one in a run's output\n"
+    "                     directory), on any number of ranks, bitwise as if it had not stopped;\n"
+    "                     frames continue in the same directory unless --output names another\n"
     "  --quiet            no progress line (for batch logs); the final summary is kept\n"
-    "  -h, --help         this help\n";
+    "  -h, --help         this help\n"
+    "\n"
+    "SIGTERM or SIGINT (what batch schedulers send before a kill) ends the run after the\n"
+    "current step with a checkpoint; the run stops with exit status 3 and a message saying\n"
+    "where, when it becomes numerically unstable (docs/reliability.md).\n";
 
 const char* kCheckHelp =
     "usage: softcontact check SCENE.yaml\n"
@@ -270,9 +281,20 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
   }
   if (a.values.count("--output-every"))
     opt.output_every = parse_count("--output-every", a.values.at("--output-every"), "run");
+  if (a.values.count("--checkpoint-every"))
+    opt.checkpoint_every = parse_count("--checkpoint-every", a.values.at("--checkpoint-every"), "run");
+  if (a.values.count("--checkpoint-minutes"))
+    opt.checkpoint_minutes = parse_seconds("--checkpoint-minutes", a.values.at("--checkpoint-minutes"), "run");
   opt.overwrite = has(a, "--overwrite");
   opt.quiet = has(a, "--quiet");
-  Scene s = load_scene(scene_argument(a, "run"));
+  RestartPoint restart;
+  const bool restarting = a.values.count("--restart") > 0;
+  if (restarting) {
+    if (!a.positional.empty())
+      usage_error("give either a scene or --restart (the checkpoint carries its scene), not both", "run");
+    if (a.values.at("--restart").empty()) usage_error("--restart expects a checkpoint file or directory", "run");
+  }
+  Scene s = restarting ? load_restart(comm, a.values.at("--restart"), restart) : load_scene(scene_argument(a, "run"));
   apply_overrides(s, opt);
   int rank = 0, size = 1;
   MPI_Comm_rank(comm, &rank);
@@ -281,15 +303,24 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
     print_warnings(s, err);
     out << "softcontact " << SOFTCONTACT_VERSION << ": " << s.path << ": " << s.objects.size() << " objects, "
         << s.num_vertices() << " vertices, " << s.num_tets() << " tets on " << size << " rank(s) x "
-        << omp_get_max_threads() << " thread(s); dt = " << s.sim.dt << " s, " << total_steps(s.sim) << " steps\n"
-        << std::flush;
+        << omp_get_max_threads() << " thread(s); dt = " << s.sim.dt << " s, " << total_steps(s.sim) << " steps\n";
+    if (restarting)
+      out << "restart: from " << restart.path << " (step " << restart.info.step << ", written on " << restart.info.ranks
+          << " rank(s))\n";
+    out << std::flush;
   }
   // Objects are the unit of distribution: ranks beyond the object count stay idle.
   if (rank == 0 && static_cast<std::size_t>(size) > s.objects.size())
     err << "softcontact: warning: " << size << " ranks for " << s.objects.size()
         << " objects: objects are never split, so " << size - static_cast<int>(s.objects.size())
         << " rank(s) will own nothing\n";
-  const RunSummary r = run_scene(comm, s, opt, out);
+  const RunSummary r = run_scene(comm, s, opt, out, restarting ? &restart : nullptr);
+  if (rank == 0 && !r.stopped_by.empty()) {
+    out << "\nstopped by " << r.stopped_by << " at step " << r.first_step + r.steps << " (t = " << r.sim_time
+        << " s); checkpoint " << r.last_checkpoint << "\n"
+        << "continue with: softcontact run --restart " << r.last_checkpoint << "\n";
+    return 0;
+  }
   if (rank == 0) {
     out << "done: " << r.steps << " steps to t = " << r.sim_time << " s in " << std::setprecision(3) << r.wall_seconds
         << " s (" << std::setprecision(4) << (r.wall_seconds > 0 ? r.steps / r.wall_seconds : 0.0) << " steps/s), "
@@ -359,7 +390,9 @@ int dispatch(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out
   if (cmd == "--version") return say("softcontact " SOFTCONTACT_VERSION "\n");
   if (cmd == "run") {
     const Args a = parse_args(argc, argv, 2, "run",
-                              {"--steps", "--end-time", "--output", "--output-every"}, {"--overwrite", "--quiet"});
+                              {"--steps", "--end-time", "--output", "--output-every", "--restart", "--checkpoint-every",
+                               "--checkpoint-minutes"},
+                              {"--overwrite", "--quiet"});
     return a.help ? say(kRunHelp) : cmd_run(a, comm, out, err);
   }
   if (cmd == "check") {
@@ -395,6 +428,10 @@ int run_cli(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out,
     // the lowest rank that failed speaks.
     code = kExitInputError;
     message = e.what();
+  } catch (const NumericalFailure& e) {
+    // Detected collectively: every rank is here with the same message.
+    if (rank == 0) err << "softcontact: error: " << e.what() << std::endl;
+    return kExitNumericalFailure;
   } catch (const std::exception& e) {
     // A failure of this rank alone (I/O, numerical): the others may be waiting in a
     // collective call, so end the whole job.

@@ -438,7 +438,11 @@ void CollisionDetector::Impl::depth(const World& w, std::vector<Collision>& out,
     st.surface_searches += c.surface_searches;
   }
   // Last line of defence: nothing non-finite leaves (every path above is finite for
-  // finite input; this catches overflow from absurd but finite coordinates).
+  // finite input; this catches overflow from absurd but finite coordinates), and records
+  // without a triangle (non-finite positions) are dropped.
+  const std::size_t before = out.size();
+  out.erase(std::remove_if(out.begin(), out.end(), [](const Collision& c) { return c.triangle_gid < 0; }), out.end());
+  st.degenerate_skipped += static_cast<std::int64_t>(before - out.size());
   for (Collision& c : out) {
     bool ok = true;
     for (int d = 0; d < 3; ++d) ok = ok && std::isfinite(c.depth[d]) && std::isfinite(c.weight[d]);

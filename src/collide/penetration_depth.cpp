@@ -242,6 +242,17 @@ void penetration_depth(const DepthInput& in, std::int32_t b, const InsidePoint* 
       const double D = std::max(s.depth[k], 0.0);
       d = D * s.dir[k];
       t = ray_triangle(in, b, pts[k].tet, xi, s.dir[k], D, c, s);
+    }
+    if (t < 0) {
+      // Only non-finite positions leave no triangle to choose (every comparison fails):
+      // an empty record, which the detector drops; the run's failure guard reports why.
+      rec.depth = {0, 0, 0};
+      rec.weight = {1.0 / 3, 1.0 / 3, 1.0 / 3};
+      for (int q = 0; q < 3; ++q) rec.triangle[q] = -1;
+      rec.triangle_gid = -1;
+      continue;
+    }
+    if (s.layer[k] != -2) {
       const index_t* tv = tri + 3 * static_cast<std::size_t>(t);
       const V3 a = load(x, tv[0]), bb = load(x, tv[1]), cc = load(x, tv[2]);
       if (!projected_weights(xi + d, a, bb, cc, rec.weight)) {

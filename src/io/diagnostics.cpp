@@ -1,7 +1,10 @@
 #include "softcontact/diagnostics.hpp"
 
 #include <cstdio>
+#include <cstdlib>
+#include <sstream>
 
+#include "h5_util.hpp"
 #include "softcontact/error.hpp"
 
 namespace softcontact {
@@ -94,6 +97,33 @@ void DiagnosticsCsv::open(const std::string& path) {
   if (!out_) throw RuntimeFailure("cannot create '" + path + "'");
   out_ << header() << '\n';
   out_.flush();
+}
+
+void DiagnosticsCsv::resume(const std::string& path, std::int64_t last_step) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    open(path);
+    return;
+  }
+  std::stringstream all;
+  all << in.rdbuf();
+  in.close();
+  const std::string text = all.str();
+  std::string kept = std::string(header()) + '\n';
+  std::size_t at = text.find('\n');  // after the header
+  while (at != std::string::npos && at + 1 < text.size()) {
+    const std::size_t end = text.find('\n', at + 1);
+    if (end == std::string::npos) break;  // a torn last row
+    const std::string row = text.substr(at + 1, end - at);
+    char* stop = nullptr;
+    const long long step = std::strtoll(row.c_str(), &stop, 10);
+    if (stop == row.c_str() || *stop != ',' || step > last_step) break;
+    kept += row;
+    at = end;
+  }
+  h5::write_text_atomically(path, kept);
+  out_.open(path, std::ios::app);
+  if (!out_) throw RuntimeFailure("cannot append to '" + path + "'");
 }
 
 void DiagnosticsCsv::write(const StepDiagnostics& d) {

@@ -8,96 +8,71 @@
 #include <sstream>
 
 #include "softcontact/error.hpp"
+#include "h5_util.hpp"
 
 namespace softcontact {
 
 namespace {
 
-void check(herr_t status, const std::string& what) {
-  if (status < 0) throw RuntimeFailure("HDF5 failed to " + what);
-}
-hid_t check_id(hid_t id, const std::string& what) {
-  if (id < 0) throw RuntimeFailure("HDF5 failed to " + what);
-  return id;
-}
+using h5::check;
+using h5::check_id;
+using h5::write_rows;
 
-template <class T>
-hid_t h5type();
-template <>
-hid_t h5type<double>() { return H5T_NATIVE_DOUBLE; }
-template <>
-hid_t h5type<std::int64_t>() { return H5T_NATIVE_INT64; }
-template <>
-hid_t h5type<std::int32_t>() { return H5T_NATIVE_INT32; }
-
-/// Creates dataset `name` (rows x cols) in `loc` and writes this rank's rows: `runs` are
-/// the global row ranges it owns, `data` the rows packed in the same order. One
-/// collective H5Dwrite; a rank with no rows takes part with an empty selection.
-template <class T>
-void write_rows(hid_t loc, const std::string& name, gid_t rows, int cols, const std::vector<GidRun>& runs,
-                const T* data) {
-  const hsize_t dims[2] = {static_cast<hsize_t>(rows), static_cast<hsize_t>(cols)};
-  const int rank = cols == 1 ? 1 : 2;
-  const hid_t fspace = check_id(H5Screate_simple(rank, dims, nullptr), "create a dataspace for " + name);
-  const hid_t dset = check_id(H5Dcreate2(loc, name.c_str(), h5type<T>(), fspace, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
-                              "create dataset " + name);
-  hsize_t local = 0;
-  if (runs.empty()) {
-    check(H5Sselect_none(fspace), "select rows");
-  } else {
-    bool first = true;
-    for (const GidRun& r : runs) {
-      const hsize_t start[2] = {static_cast<hsize_t>(r.begin), 0};
-      const hsize_t count[2] = {static_cast<hsize_t>(r.count), static_cast<hsize_t>(cols)};
-      check(H5Sselect_hyperslab(fspace, first ? H5S_SELECT_SET : H5S_SELECT_OR, start, nullptr, count, nullptr),
-            "select rows of " + name);
-      first = false;
-      local += static_cast<hsize_t>(r.count);
-    }
-  }
-  const hsize_t mdims[1] = {local * static_cast<hsize_t>(cols)};
-  const hid_t mspace = check_id(H5Screate_simple(1, mdims, nullptr), "create a memory dataspace");
-  if (local == 0) check(H5Sselect_none(mspace), "select nothing");
-  const hid_t dxpl = H5Pcreate(H5P_DATASET_XFER);
-  check(H5Pset_dxpl_mpio(dxpl, H5FD_MPIO_COLLECTIVE), "set collective transfer");
-  check(H5Dwrite(dset, h5type<T>(), mspace, fspace, dxpl, data), "write dataset " + name);
-  H5Pclose(dxpl);
-  H5Sclose(mspace);
-  H5Dclose(dset);
-  H5Sclose(fspace);
-}
-
-void write_attribute(hid_t loc, const char* name, hid_t type, const void* value) {
-  const hid_t space = H5Screate(H5S_SCALAR);
-  const hid_t attr = check_id(H5Acreate2(loc, name, type, space, H5P_DEFAULT, H5P_DEFAULT), std::string("create attribute ") + name);
-  check(H5Awrite(attr, type, value), std::string("write attribute ") + name);
-  H5Aclose(attr);
-  H5Sclose(space);
-}
+constexpr const char* kMeshFile = "mesh.h5";
+constexpr const char* kFramesDir = "frames";
 
 std::string frame_group(std::int64_t k) {
   char buf[32];
-  std::snprintf(buf, sizeof buf, "/frames/%06lld", static_cast<long long>(k));
+  std::snprintf(buf, sizeof buf, "%06lld", static_cast<long long>(k));
   return buf;
 }
 
+// "dataset:xdmf name:components" per line, the fields of a frame in the order written.
+std::string encode_fields(const std::vector<std::pair<std::string, int>>& fields, const std::vector<std::string>& datasets) {
+  std::string s;
+  for (std::size_t a = 0; a < fields.size(); ++a)
+    s += datasets[a] + ':' + fields[a].first + ':' + std::to_string(fields[a].second) + '\n';
+  return s;
+}
+
+bool decode_fields(const std::string& s, std::vector<std::pair<std::string, int>>& fields, std::vector<std::string>& datasets) {
+  std::istringstream in(s);
+  std::string line;
+  while (std::getline(in, line)) {
+    const auto a = line.find(':'), b = line.rfind(':');
+    if (a == std::string::npos || b == a) return false;
+    const std::string comps = line.substr(b + 1);
+    if (comps != "1" && comps != "3") return false;
+    datasets.push_back(line.substr(0, a));
+    fields.emplace_back(line.substr(a + 1, b - a - 1), comps == "3" ? 3 : 1);
+  }
+  return true;
+}
+
 }  // namespace
+
+std::string FrameWriter::frame_file(std::int64_t k) const { return std::string(kFramesDir) + "/" + frame_group(k) + ".h5"; }
 
 FrameWriter::FrameWriter(MPI_Comm comm, const std::string& h5_path, const std::string& xdmf_path, const Scene& scene,
                          const World& w)
     : comm_(comm), h5_path_(h5_path), xdmf_path_(xdmf_path), nv_(w.global_vertices), nt_(w.global_tets) {
   MPI_Comm_rank(comm_, &rank_);
-  vertex_runs_ = owned_vertex_runs(w);
-  const hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
-  check(H5Pset_fapl_mpio(fapl, comm_, MPI_INFO_NULL), "set the MPI-IO driver");
-  file_ = H5Fcreate(h5_path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+  dir_ = std::filesystem::path(h5_path).parent_path().string();
+  if (dir_.empty()) dir_ = ".";
+  if (rank_ == 0) {
+    std::error_code ec;
+    std::filesystem::remove_all(std::filesystem::path(dir_) / kFramesDir, ec);
+    std::filesystem::create_directories(std::filesystem::path(dir_) / kFramesDir, ec);
+  }
+  const std::string mesh_path = (std::filesystem::path(dir_) / kMeshFile).string(), tmp = mesh_path + ".tmp";
+  const hid_t fapl = h5::mpio_access(comm_);
+  const hid_t file = H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
   H5Pclose(fapl);
-  if (file_ < 0) throw RuntimeFailure("cannot create the output file '" + h5_path + "'");
-
-  const hid_t mesh = check_id(H5Gcreate2(file_, "/mesh", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), "create /mesh");
-  H5Gclose(check_id(H5Gcreate2(file_, "/frames", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), "create /frames"));
+  if (file < 0) throw RuntimeFailure("cannot create the output file '" + tmp + "'");
+  const hid_t mesh = check_id(H5Gcreate2(file, "/mesh", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), "create /mesh");
 
   // Owned rows in global order; connectivity in global vertex ids.
+  vertex_runs_ = owned_vertex_runs(w);
   const std::size_t n = w.n_owned;
   std::vector<std::int32_t> obj(w.vertex_object.begin(), w.vertex_object.begin() + static_cast<std::ptrdiff_t>(n));
   std::vector<double> mass(n);
@@ -115,42 +90,96 @@ FrameWriter::FrameWriter(MPI_Comm comm, const std::string& h5_path, const std::s
   write_rows(mesh, "vertex_object", nv_, 1, vertex_runs_, obj.data());
   write_rows(mesh, "vertex_mass", nv_, 1, vertex_runs_, mass.data());
 
-  // Object table (names, materials) as attributes of /mesh/objects, for post-processing.
+  // Object table (names, materials) as attributes of /mesh, for post-processing.
   std::ostringstream names;
   for (std::size_t k = 0; k < scene.objects.size(); ++k)
     names << scene.objects[k].name << '\t' << scene.materials[scene.objects[k].material].name << '\n';
-  const std::string table = names.str();
-  const hid_t str = H5Tcopy(H5T_C_S1);
-  H5Tset_size(str, table.size() + 1);
-  write_attribute(mesh, "objects", str, table.c_str());
-  H5Tclose(str);
+  h5::write_string_attribute(mesh, "objects", names.str());
   const std::int64_t nobj = static_cast<std::int64_t>(scene.objects.size());
-  write_attribute(mesh, "num_objects", H5T_NATIVE_INT64, &nobj);
+  h5::write_attribute(mesh, "num_objects", nobj);
   H5Gclose(mesh);
-  check(H5Fflush(file_, H5F_SCOPE_GLOBAL), "flush " + h5_path_);
-}
-
-FrameWriter::~FrameWriter() {
-  try {
-    close();
-  } catch (...) {
-    // Destructors must not throw; close() already reported nothing we can act on here.
+  check(H5Fclose(file), "close " + tmp);
+  h5::publish(comm_, tmp, mesh_path, false);
+  if (rank_ == 0) {
+    write_index();
+    write_xdmf();
   }
 }
 
-void FrameWriter::close() {
-  if (file_ >= 0) {
-    H5Fclose(file_);
-    file_ = -1;
+FrameWriter::FrameWriter(MPI_Comm comm, const std::string& h5_path, const std::string& xdmf_path, const World& w,
+                         std::int64_t last_step)
+    : comm_(comm), h5_path_(h5_path), xdmf_path_(xdmf_path), nv_(w.global_vertices), nt_(w.global_tets) {
+  MPI_Comm_rank(comm_, &rank_);
+  dir_ = std::filesystem::path(h5_path).parent_path().string();
+  if (dir_.empty()) dir_ = ".";
+  std::string failure;
+  if (rank_ == 0) {
+    namespace fs = std::filesystem;
+    const h5::QuietErrors quiet;
+    const std::string mesh_path = (fs::path(dir_) / kMeshFile).string();
+    const hid_t f = H5Fopen(mesh_path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    hsize_t dims[2] = {0, 0};
+    const hid_t d = f < 0 ? -1 : H5Dopen2(f, "/mesh/points", H5P_DEFAULT);
+    const hid_t sp = d < 0 ? -1 : H5Dget_space(d);
+    if (sp >= 0) H5Sget_simple_extent_dims(sp, dims, nullptr);
+    if (sp >= 0) H5Sclose(sp);
+    if (d >= 0) H5Dclose(d);
+    if (f >= 0) H5Fclose(f);
+    if (f < 0) failure = "cannot continue the output in '" + dir_ + "': '" + mesh_path + "' is missing or unreadable";
+    else if (dims[0] != static_cast<hsize_t>(nv_))
+      failure = "cannot continue the output in '" + dir_ + "': its mesh has " + std::to_string(dims[0]) +
+                " vertices, the scene " + std::to_string(nv_);
+    // Frames 0, 1, ... up to the first missing, damaged or later one; the rest go.
+    std::int64_t k = 0;
+    for (; failure.empty(); ++k) {
+      const fs::path p = fs::path(dir_) / frame_file(k);
+      if (!fs::exists(p)) break;
+      const hid_t ff = H5Fopen(p.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+      if (ff < 0) break;
+      FrameInfo info{-1, 0, {}, {}};
+      bool ok = false;
+      try {
+        info.step = h5::read_attribute<std::int64_t>(ff, "step", p.string());
+        info.time = h5::read_attribute<double>(ff, "time", p.string());
+        ok = decode_fields(h5::read_string_attribute(ff, "fields", p.string()), info.fields, info.datasets);
+      } catch (const RuntimeFailure&) {
+        ok = false;
+      }
+      H5Fclose(ff);
+      if (!ok || info.step > last_step) break;
+      frames_.push_back(std::move(info));
+    }
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(fs::path(dir_) / kFramesDir, ec)) {
+      const std::string stem = e.path().stem().string();
+      const bool numbered = !stem.empty() && stem.find_first_not_of("0123456789") == std::string::npos;
+      if (e.path().extension() == ".tmp" || (numbered && std::stoll(stem) >= k)) fs::remove(e.path(), ec);
+    }
+    if (failure.empty()) {
+      count_ = static_cast<std::int64_t>(frames_.size());
+      last_step_ = frames_.empty() ? -1 : frames_.back().step;
+      write_index();
+      write_xdmf();
+    }
   }
+  int ok = failure.empty() ? 1 : 0;
+  MPI_Bcast(&ok, 1, MPI_INT, 0, comm_);
+  if (!ok) throw RuntimeFailure(rank_ == 0 ? failure : "rank 0 cannot continue the output in '" + dir_ + "'");
+  std::int64_t state[2] = {count_, last_step_};
+  MPI_Bcast(state, 2, MPI_INT64_T, 0, comm_);
+  count_ = state[0];
+  last_step_ = state[1];
 }
 
 void FrameWriter::write_frame(std::int64_t step, double time, const World& w, const std::vector<VertexField>& extra) {
   const std::int64_t k = frames_written();
-  const std::string gname = frame_group(k);
-  const hid_t g = check_id(H5Gcreate2(file_, gname.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), "create " + gname);
-  write_attribute(g, "time", H5T_NATIVE_DOUBLE, &time);
-  write_attribute(g, "step", H5T_NATIVE_INT64, &step);
+  const std::string path = (std::filesystem::path(dir_) / frame_file(k)).string(), tmp = path + ".tmp";
+  const hid_t fapl = h5::mpio_access(comm_);
+  const hid_t g = H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+  H5Pclose(fapl);
+  if (g < 0) throw RuntimeFailure("cannot create the frame file '" + tmp + "'");
+  h5::write_attribute(g, "time", time);
+  h5::write_attribute(g, "step", step);
 
   FrameInfo info{step, time, {}, {}};
   vertex_runs_ = owned_vertex_runs(w);  // objects may have migrated since the last frame
@@ -165,17 +194,39 @@ void FrameWriter::write_frame(std::int64_t step, double time, const World& w, co
     info.fields.emplace_back(f.xdmf_name, f.components);
     info.datasets.push_back(f.name);
   }
-  H5Gclose(g);
-  check(H5Fflush(file_, H5F_SCOPE_GLOBAL), "flush " + h5_path_);
-  frames_.push_back(std::move(info));
-  if (rank_ == 0) write_xdmf();
+  h5::write_string_attribute(g, "fields", encode_fields(info.fields, info.datasets));
+  check(H5Fclose(g), "close " + tmp);
+  h5::publish(comm_, tmp, path, false);
+  ++count_;
+  last_step_ = step;
+  if (rank_ == 0) {
+    frames_.push_back(std::move(info));
+    write_index();
+    write_xdmf();
+  }
+}
+
+// The index: external links only, so it is small and rewritten whole after every frame.
+void FrameWriter::write_index() const {
+  const std::string tmp = h5_path_ + ".tmp";
+  const hid_t f = H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (f < 0) throw RuntimeFailure("cannot create '" + tmp + "'");
+  check(H5Lcreate_external(kMeshFile, "/mesh", f, "mesh", H5P_DEFAULT, H5P_DEFAULT), "link /mesh");
+  const hid_t frames = check_id(H5Gcreate2(f, "/frames", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), "create /frames");
+  for (std::int64_t k = 0; k < count_; ++k)
+    check(H5Lcreate_external(frame_file(k).c_str(), "/", frames, frame_group(k).c_str(), H5P_DEFAULT, H5P_DEFAULT),
+          "link frame " + frame_group(k));
+  H5Gclose(frames);
+  check(H5Fclose(f), "close " + tmp);
+  std::error_code ec;
+  std::filesystem::rename(tmp, h5_path_, ec);
+  if (ec) throw RuntimeFailure("cannot rename '" + tmp + "' to '" + h5_path_ + "': " + ec.message());
 }
 
 void FrameWriter::write_xdmf() const {
   // ParaView reads this as a temporal collection of unstructured tet grids. Paths inside
   // are relative to the XDMF file, so the output directory can be moved as a whole.
-  const std::string h5 = std::filesystem::path(h5_path_).filename().string();
-  auto item = [&](const std::string& path, gid_t rows, int cols, const char* type, int precision) {
+  auto item = [&](const std::string& h5, const std::string& path, gid_t rows, int cols, const char* type, int precision) {
     std::ostringstream s;
     s << "<DataItem Dimensions=\"" << rows;
     if (cols > 1) s << ' ' << cols;
@@ -189,37 +240,28 @@ void FrameWriter::write_xdmf() const {
     << "  <Grid Name=\"softcontact\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
   for (std::size_t k = 0; k < frames_.size(); ++k) {
     const FrameInfo& f = frames_[k];
-    const std::string g = frame_group(static_cast<std::int64_t>(k));
+    const std::string g = frame_file(static_cast<std::int64_t>(k));
     x << "   <Grid Name=\"frame_" << k << "\" GridType=\"Uniform\">\n"
       << "    <Time Value=\"" << f.time << "\"/>\n"
       << "    <Topology TopologyType=\"Tetrahedron\" NumberOfElements=\"" << nt_ << "\">\n     "
-      << item("/mesh/tets", nt_, 4, "Int", 8) << "\n    </Topology>\n"
-      << "    <Geometry GeometryType=\"XYZ\">\n     " << item(g + "/positions", nv_, 3, "Float", 8)
+      << item(kMeshFile, "/mesh/tets", nt_, 4, "Int", 8) << "\n    </Topology>\n"
+      << "    <Geometry GeometryType=\"XYZ\">\n     " << item(g, "/positions", nv_, 3, "Float", 8)
       << "\n    </Geometry>\n";
     for (std::size_t a = 0; a < f.fields.size(); ++a) {
       const auto& [name, comps] = f.fields[a];
       x << "    <Attribute Name=\"" << name << "\" AttributeType=\"" << (comps == 3 ? "Vector" : "Scalar")
-        << "\" Center=\"Node\">\n     " << item(g + "/" + f.datasets[a], nv_, comps, "Float", 8) << "\n    </Attribute>\n";
+        << "\" Center=\"Node\">\n     " << item(g, "/" + f.datasets[a], nv_, comps, "Float", 8) << "\n    </Attribute>\n";
     }
     x << "    <Attribute Name=\"owner_rank\" AttributeType=\"Scalar\" Center=\"Node\">\n     "
-      << item(g + "/owner_rank", nv_, 1, "Int", 4) << "\n    </Attribute>\n"
+      << item(g, "/owner_rank", nv_, 1, "Int", 4) << "\n    </Attribute>\n"
       << "    <Attribute Name=\"object\" AttributeType=\"Scalar\" Center=\"Node\">\n     "
-      << item("/mesh/vertex_object", nv_, 1, "Int", 4) << "\n    </Attribute>\n"
+      << item(kMeshFile, "/mesh/vertex_object", nv_, 1, "Int", 4) << "\n    </Attribute>\n"
       << "    <Attribute Name=\"tet_object\" AttributeType=\"Scalar\" Center=\"Cell\">\n     "
-      << item("/mesh/tet_object", nt_, 1, "Int", 4) << "\n    </Attribute>\n"
+      << item(kMeshFile, "/mesh/tet_object", nt_, 1, "Int", 4) << "\n    </Attribute>\n"
       << "   </Grid>\n";
   }
   x << "  </Grid>\n </Domain>\n</Xdmf>\n";
-  const std::string tmp = xdmf_path_ + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << x.str();
-    out.flush();
-    if (!out) throw RuntimeFailure("cannot write '" + tmp + "'");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, xdmf_path_, ec);
-  if (ec) throw RuntimeFailure("cannot rename '" + tmp + "' to '" + xdmf_path_ + "': " + ec.message());
+  h5::write_text_atomically(xdmf_path_, x.str());
 }
 
 }  // namespace softcontact

@@ -1,8 +1,13 @@
 #include "softcontact/run.hpp"
 
+#include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <csignal>
+#include <fstream>
+#include <limits>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -11,10 +16,13 @@
 #include <memory>
 #include <sstream>
 
+#include "softcontact/checkpoint.hpp"
 #include "softcontact/diagnostics.hpp"
 #include "softcontact/error.hpp"
 #include "softcontact/frame_writer.hpp"
 #include "softcontact/simulator.hpp"
+#include "softcontact/forces.hpp"
+#include "softcontact/surface.hpp"
 #include "softcontact/world.hpp"
 
 namespace softcontact {
@@ -100,18 +108,144 @@ void check_output_dir(MPI_Comm comm, const std::string& dir, bool overwrite) {
   if (status == 2) throw InputError("output path '" + dir + "' exists and is not a directory");
 }
 
-RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, std::ostream& log) {
-  int rank = 0;
+namespace {
+
+// Signals a batch scheduler sends before it kills a job: the run finishes its step,
+// writes a checkpoint and ends (docs/reliability.md).
+volatile std::sig_atomic_t g_signal = 0;
+extern "C" void on_stop_signal(int s) { g_signal = s; }
+
+class StopSignals {
+public:
+  StopSignals() {
+    g_signal = 0;
+    struct sigaction sa {};
+    sa.sa_handler = on_stop_signal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART;
+    sigaction(SIGTERM, &sa, &old_term_);
+    sigaction(SIGINT, &sa, &old_int_);
+  }
+  ~StopSignals() {
+    sigaction(SIGTERM, &old_term_, nullptr);
+    sigaction(SIGINT, &old_int_, nullptr);
+  }
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+
+private:
+  struct sigaction old_term_ {}, old_int_ {};
+};
+
+const char* signal_name(int s) { return s == SIGTERM ? "SIGTERM" : s == SIGINT ? "SIGINT" : "a signal"; }
+
+double norm3(const Vec3& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+
+// What the failure guard compares against, from the scene alone (identical on all ranks).
+struct GuardScales {
+  double max_speed = 0;      // [m/s]
+  double release = 0;        // energy the scene can release besides its initial energy [J]
+  std::int64_t movable_tets = 0;
+};
+
+GuardScales guard_scales(const Scene& scene) {
+  GuardScales g;
+  double c = 0, v = 0, mass = 0, motion_work = 0;
+  bool motion = false;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  const double gn = norm3(scene.sim.gravity);
+  for (const SceneObject& o : scene.objects) {
+    const Material& m = scene.materials[static_cast<std::size_t>(o.material)];
+    v = std::max({v, norm3(o.velocity), norm3(o.motion.velocity)});
+    motion = motion || o.motion.moves();
+    for (std::size_t i = 0; i < o.mesh.num_vertices(); ++i) {
+      // Height along gravity: how far anything can fall.
+      double h = 0;
+      for (int d = 0; d < 3; ++d) h += o.mesh.points[3 * i + static_cast<std::size_t>(d)] * (gn > 0 ? scene.sim.gravity[static_cast<std::size_t>(d)] / gn : 0);
+      lo = std::min(lo, h);
+      hi = std::max(hi, h);
+    }
+    if (o.kinematic) continue;
+    c = std::max(c, m.wave_speed());
+    const double volume = tet_volume_sum(o.mesh);
+    mass += m.density * volume;
+    motion_work += m.young * volume;
+    g.movable_tets += static_cast<std::int64_t>(o.mesh.num_tets());
+  }
+  const double height = hi > lo ? hi - lo : 0;
+  g.max_speed = scene.sim.max_speed > 0 ? scene.sim.max_speed
+                                        : 10 * std::max({c, v, std::sqrt(2 * gn * height)});
+  // Falling the scene's height, moving at the fastest given speed and, when anchors are
+  // driven, the work of straining every movable object fully.
+  g.release = mass * gn * height + mass * v * v + (motion ? motion_work : 0);
+  return g;
+}
+
+double total_energy(const StepDiagnostics& d) { return d.kinetic_energy + d.elastic_energy + d.potential_energy; }
+
+std::string format_time(double t) {
+  std::ostringstream s;
+  s << std::setprecision(6) << t;
+  return s.str();
+}
+
+}  // namespace
+
+Scene load_restart(MPI_Comm comm, const std::string& path, RestartPoint& restart) {
+  restart.path = resolve_checkpoint(path);
+  restart.info = read_checkpoint_info(comm, restart.path);
+  const CheckpointInfo& info = restart.info;
+  Scene scene = load_scene_from_string(info.scene_text, info.scene_path);
+  if (scene_fingerprint(scene) != info.fingerprint)
+    throw InputError(restart.path, 0,
+                     "the scene it continues ('" + info.scene_path +
+                         "', as stored in the checkpoint) now reads differently: a mesh file it uses has changed or "
+                         "moved since the checkpoint was written, so the run cannot continue bitwise");
+  Simulation& sim = scene.sim;
+  sim.steps = info.steps;
+  sim.end_time.reset();
+  sim.output_every = info.output_every;
+  sim.output_interval = 0;
+  // A checkpoint inside a run's output directory continues that directory, wherever it
+  // has been moved or copied to since; elsewhere, the directory it was written for.
+  const fs::path parent = fs::absolute(restart.path).lexically_normal().parent_path();
+  sim.output_dir = parent.filename() == "checkpoints" ? parent.parent_path().string() : info.output_dir;
+  restart.output_dir = sim.output_dir;
+  return scene;
+}
+
+RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, std::ostream& log,
+                     const RestartPoint* restart) {
+  int rank = 0, nranks = 1;
   MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &nranks);
   const Simulation& sim = scene.sim;
   const std::int64_t nsteps = total_steps(sim);
   const std::int64_t every = steps_between_frames(sim);
+  const std::int64_t ckpt_every = opt.checkpoint_every ? *opt.checkpoint_every : sim.checkpoint_every;
+  const double ckpt_seconds = 60 * (opt.checkpoint_minutes ? *opt.checkpoint_minutes : sim.checkpoint_minutes);
+  const bool checkpoints = ckpt_every > 0 || ckpt_seconds > 0;
+  const std::int64_t first = restart ? restart->info.step : 0;
+  if (first > nsteps)
+    throw InputError(restart->path, 0,
+                     "the checkpoint is at step " + std::to_string(first) + ", past the run's end at step " +
+                         std::to_string(nsteps) + ": give --steps or --end-time beyond it");
 
-  check_output_dir(comm, sim.output_dir, opt.overwrite);
+  // A restart continues in its own output directory unless told to start another one.
+  const fs::path dir = fs::absolute(sim.output_dir).lexically_normal();
+  const bool continuing = restart && fs::absolute(restart->output_dir).lexically_normal() == dir;
+  if (!continuing) check_output_dir(comm, sim.output_dir, opt.overwrite);
 
-  // The models' rest state is the world as built (before any step).
-  Simulator simulator(comm, scene);
-  if (rank == 0 && simulator.initial_overlaps() > 0)
+  std::vector<int> partition;
+  if (restart) {
+    const CheckpointInfo& info = restart->info;
+    bool same = info.ranks == nranks && info.partition.size() == scene.objects.size();
+    for (int r : info.partition) same = same && r >= 0 && r < nranks;
+    partition = same ? info.partition : partition_at(scene, extract_surfaces(scene), info.boxes, nranks);
+  }
+  Simulator simulator(comm, scene, partition);
+  if (restart) read_checkpoint_state(comm, restart->path, restart->info, simulator);
+  if (rank == 0 && !restart && simulator.initial_overlaps() > 0)
     std::cerr << scene.path << ": warning: " << simulator.initial_overlaps()
               << " vertices start inside other objects (deepest " << simulator.initial_overlap_depth()
               << " m); the first step pushes them out within one time step, which is violent for deep "
@@ -119,53 +253,150 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
 
   // Everything is validated: only now touch the file system.
   RunSummary summary;
-  const fs::path dir(sim.output_dir);
-  summary.h5 = (dir / kFramesH5).string();
-  summary.xdmf = (dir / kFramesXdmf).string();
-  summary.csv = (dir / kDiagnosticsCsv).string();
+  summary.first_step = first;
+  const fs::path shown(sim.output_dir);  // as the user gave it, for messages
+  summary.h5 = (shown / kFramesH5).string();
+  summary.xdmf = (shown / kFramesXdmf).string();
+  summary.csv = (shown / kDiagnosticsCsv).string();
   int made = 1;
-  if (rank == 0) {
+  if (rank == 0 && !continuing) {
     std::error_code ec;
     fs::create_directories(dir, ec);
-    for (const char* f : {kFramesH5, kFramesXdmf, kDiagnosticsCsv, "scene.yaml"}) fs::remove(dir / f, ec);
-    fs::copy_file(scene.path, dir / "scene.yaml", fs::copy_options::overwrite_existing, ec);
+    for (const char* f : {kFramesH5, kFramesXdmf, kDiagnosticsCsv, "scene.yaml", "mesh.h5"}) fs::remove(dir / f, ec);
+    fs::remove_all(dir / "checkpoints", ec);
     made = fs::is_directory(dir) ? 1 : 0;
+    if (made) {
+      std::ofstream copy(dir / "scene.yaml", std::ios::binary | std::ios::trunc);
+      copy << scene.text;
+    }
   }
   MPI_Bcast(&made, 1, MPI_INT, 0, comm);
   if (!made) throw RuntimeFailure("cannot create the output directory '" + sim.output_dir + "'");
 
   World& world = simulator.world();
-  FrameWriter writer(comm, summary.h5, summary.xdmf, scene, world);
+  std::unique_ptr<FrameWriter> writer =
+      continuing ? std::make_unique<FrameWriter>(comm, summary.h5, summary.xdmf, world, first)
+                 : std::make_unique<FrameWriter>(comm, summary.h5, summary.xdmf, scene, world);
   DiagnosticsCsv csv;
-  if (rank == 0) csv.open(summary.csv);
+  if (rank == 0) {
+    if (continuing) csv.resume(summary.csv, first);
+    else csv.open(summary.csv);
+  }
+
+  const GuardScales guard = guard_scales(scene);
+  double energy0 = restart ? restart->info.energy0 : 0, release = restart ? restart->info.energy_scale : 0;
+  bool have_energy = restart != nullptr;
+  std::int64_t step = first;
+  std::string last_checkpoint = continuing ? restart->path : "";
+  std::int64_t last_checkpoint_step = continuing ? first : -1;
+
+  // A failure: every rank throws the same message, with where to go on from.
+  auto fail = [&](const std::string& what) {
+    std::ostringstream m;
+    m << "numerical failure at step " << step << " (t = " << format_time(simulator.time()) << " s): " << what
+      << ".\n  The run has become unstable. Try a smaller dt: now " << sim.dt << " s";
+    const double stable = stable_time_step(scene);
+    if (std::isfinite(stable))
+      m << "; the stable explicit limit of this scene is " << stable << " s ('dt: auto' takes " << sim.dt_safety
+        << " of it)";
+    if (sim.integrator != IntegratorKind::implicit_euler) m << ", or the implicit_euler integrator";
+    m << ".\n  Frames up to step " << writer->last_step() << " are in " << dir.string() << "; ";
+    if (last_checkpoint.empty()) m << "no checkpoint was written (simulation.checkpoint, --checkpoint-every).";
+    else m << "the last good checkpoint is " << last_checkpoint << " (step " << last_checkpoint_step << ").";
+    throw NumericalFailure(m.str());
+  };
 
   auto record = [&] {
     const double t0 = now();
     StepDiagnostics d;
     simulator.measure(d);
-    writer.write_frame(d.step, d.time, world,
-                       {{"contact_forces", "contact_force", 3, simulator.contact_force().data()},
-                        {"penetration", "penetration", 3, simulator.penetration().data()}});
+    writer->write_frame(d.step, d.time, world,
+                        {{"contact_forces", "contact_force", 3, simulator.contact_force().data()},
+                         {"penetration", "penetration", 3, simulator.penetration().data()}});
     std::int64_t steps = 0;
     PhaseTimes acc = simulator.take_times(steps);
     acc.output += now() - t0;
     d.seconds = steps > 0 ? acc.scaled(1.0 / static_cast<double>(steps)) : acc;
     if (rank == 0) csv.write(d);
+    // The guard's energy and inversion checks ride on the frame's reductions (the frame
+    // is written first: it shows the state that failed).
+    if (!have_energy) {
+      energy0 = total_energy(d);
+      release = d.kinetic_energy + d.elastic_energy + guard.release;
+      have_energy = true;
+    }
+    const double grown = total_energy(d) - energy0;
+    if (!std::isfinite(total_energy(d)) || (release > 0 && grown > 10 * release)) {
+      std::ostringstream w;
+      w << std::setprecision(4) << "the total energy grew by " << grown << " J, more than 10 times the " << release
+        << " J the scene can release; " << simulator.locate_energy();
+      fail(w.str());
+    }
+    if (static_cast<double>(d.inverted_elements) > sim.max_inverted_fraction * static_cast<double>(guard.movable_tets)) {
+      const std::string where = simulator.check_inversions(sim.max_inverted_fraction);
+      if (!where.empty()) fail(where);
+    }
   };
-  record();
 
+  auto write_ckpt = [&] {
+    // Never checkpoint a state the guard would reject.
+    const std::string bad = simulator.check_inversions(sim.max_inverted_fraction);
+    if (!bad.empty()) fail(bad);
+    const double t0 = now();
+    CheckpointInfo info;
+    info.steps = nsteps;
+    info.output_every = every;
+    info.frames = writer->frames_written();
+    info.fingerprint = scene_fingerprint(scene);
+    info.energy0 = energy0;
+    info.energy_scale = release;
+    info.scene_path = fs::absolute(scene.path).lexically_normal().string();
+    info.scene_text = scene.text;
+    info.output_dir = dir.string();
+    const std::string path = checkpoint_path(dir.string(), step);
+    write_checkpoint(comm, path, simulator, info);
+    if (rank == 0) prune_checkpoints(dir.string(), sim.checkpoint_keep);
+    last_checkpoint = path;
+    last_checkpoint_step = step;
+    if (rank == 0 && !opt.quiet)
+      log << "checkpoint: " << path << " (step " << step << ", " << std::setprecision(3) << now() - t0 << " s)\n"
+          << std::flush;
+  };
+
+  if (!continuing) record();
+
+  const StopSignals signals;
   Progress progress(log, rank == 0 && !opt.quiet, nsteps, sim.dt);
   const double wall0 = now();
-  for (std::int64_t step = 1; step <= nsteps; ++step) {
+  double since_checkpoint = now();
+  int stop_signal = 0;
+  while (step < nsteps) {
     simulator.step();
+    ++step;
     if (step % every == 0 || step == nsteps) record();
+    // One reduction a step: a stop signal on any rank, the health of every rank's
+    // vertices, and the wall time since the last checkpoint (rank clocks differ).
+    double flags[3] = {static_cast<double>(g_signal), static_cast<double>(simulator.local_health(guard.max_speed)),
+                       now() - since_checkpoint};
+    MPI_Allreduce(MPI_IN_PLACE, flags, 3, MPI_DOUBLE, MPI_MAX, comm);
+    if (flags[1] > 0) fail(simulator.diagnose(static_cast<int>(flags[1]), guard.max_speed));
+    stop_signal = static_cast<int>(flags[0]);
+    const bool due = (ckpt_every > 0 && step % ckpt_every == 0) || (ckpt_seconds > 0 && flags[2] >= ckpt_seconds) ||
+                     (checkpoints && step == nsteps) || stop_signal != 0;
+    if (due) {
+      write_ckpt();
+      since_checkpoint = now();
+    }
+    if (stop_signal != 0) break;
     progress.update(step);
   }
-  writer.close();
-  summary.steps = nsteps;
-  summary.sim_time = static_cast<double>(nsteps) * sim.dt;
+  writer->close();
+  summary.steps = step - first;
+  summary.sim_time = simulator.time();
   summary.wall_seconds = now() - wall0;
-  summary.frames = writer.frames_written();
+  summary.frames = writer->frames_written();
+  summary.last_checkpoint = last_checkpoint;
+  if (stop_signal != 0) summary.stopped_by = signal_name(stop_signal);
   return summary;
 }
 

@@ -95,14 +95,24 @@ std::vector<ObjectBox> scene_boxes(const Scene& scene) {
 }
 }  // namespace
 
-std::vector<int> initial_partition(const Scene& scene, const std::vector<Surface>& surfaces, int nranks) {
+std::vector<int> partition_at(const Scene& scene, const std::vector<Surface>& surfaces, std::vector<ObjectBox> boxes,
+                              int nranks) {
   const std::size_t no = scene.objects.size();
   if (nranks <= 1) return std::vector<int>(no, 0);
   PartitionInput in;
-  for (std::size_t k = 0; k < no; ++k) in.weight.push_back(object_work(scene, surfaces, k));
-  in.box = scene_boxes(scene);
+  for (std::size_t k = 0; k < no; ++k) {
+    in.weight.push_back(object_work(scene, surfaces, k));
+    for (int d = 0; d < 3; ++d)
+      if (!std::isfinite(boxes[k].lo[d]) || !std::isfinite(boxes[k].hi[d]) || !(boxes[k].lo[d] <= boxes[k].hi[d]))
+        boxes[k].lo[d] = boxes[k].hi[d] = 0;  // a blown-up object
+  }
+  in.box = std::move(boxes);
   in.reach = median_object_size(in.box);
   return partition_objects(in, nranks);
+}
+
+std::vector<int> initial_partition(const Scene& scene, const std::vector<Surface>& surfaces, int nranks) {
+  return partition_at(scene, surfaces, scene_boxes(scene), nranks);
 }
 
 Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partition)
@@ -383,20 +393,13 @@ void Simulator::maybe_rebalance() {
   // Both figures are reduced, so every rank takes the same decision.
   if (!(imbalance > rebalance_.max_imbalance) && !(cross > rebalance_.max_cross_fraction)) return;
   const std::size_t no = scene_.objects.size();
-  PartitionInput in;
-  in.box = current_boxes();
-  for (std::size_t k = 0; k < no; ++k) {
-    in.weight.push_back(object_work(scene_, surfaces_, k));
-    for (int d = 0; d < 3; ++d)
-      if (!std::isfinite(in.box[k].lo[d]) || !std::isfinite(in.box[k].hi[d]) || !(in.box[k].lo[d] <= in.box[k].hi[d]))
-        in.box[k].lo[d] = in.box[k].hi[d] = 0;  // a blown-up object
-  }
-  in.reach = median_object_size(in.box);
-  std::vector<int> next = partition_objects(in, nranks_);
+  std::vector<int> next = partition_at(scene_, surfaces_, current_boxes(), nranks_);
+  std::vector<std::int64_t> weight(no);
+  for (std::size_t k = 0; k < no; ++k) weight[k] = object_work(scene_, surfaces_, k);
   // Keep objects where they are as far as the new parts allow: relabel each new part as
   // the old rank it shares the most work with (greedy, heaviest overlaps first).
   std::vector<std::vector<std::int64_t>> overlap(static_cast<std::size_t>(nranks_), std::vector<std::int64_t>(static_cast<std::size_t>(nranks_), 0));
-  for (std::size_t k = 0; k < no; ++k) overlap[static_cast<std::size_t>(next[k])][static_cast<std::size_t>(partition_[k])] += in.weight[k] + 1;
+  for (std::size_t k = 0; k < no; ++k) overlap[static_cast<std::size_t>(next[k])][static_cast<std::size_t>(partition_[k])] += weight[k] + 1;
   std::vector<int> label(static_cast<std::size_t>(nranks_), -1), taken(static_cast<std::size_t>(nranks_), 0);
   for (int round = 0; round < nranks_; ++round) {
     std::int64_t best = -1;
@@ -513,6 +516,16 @@ void Simulator::migrate(const std::vector<int>& next) {
   std::copy(nv.begin(), nv.end(), world_.v.begin());
   contact_->anchors() = std::move(next_anchor);
   contact_->set_anchor_step(anchor_step);
+  rebuild_ghosts(true);
+}
+
+std::vector<StictionAnchor>& Simulator::anchors() { return contact_->anchors(); }
+std::int64_t Simulator::anchor_step() const { return contact_->anchor_step(); }
+
+void Simulator::resume(std::int64_t step, std::int64_t anchor_step) {
+  step_ = step;
+  contact_->set_anchor_step(anchor_step);
+  // The halo broadcast fills ghost rows of x and x_prev from their owners.
   rebuild_ghosts(true);
 }
 

@@ -29,6 +29,11 @@ expect 2 "unknown option '--stpes' \(did you mean '--steps'\?\)" -- "$exe" run "
 expect 2 "--steps expects a positive integer, got '-3'" -- "$exe" run "$data/scenes/small.yaml" --steps=-3
 expect 2 "--steps expects a positive integer, got 'ten'" -- "$exe" run "$data/scenes/small.yaml" --steps ten
 expect 2 "missing.yaml: scene file does not exist" -- "$exe" run missing.yaml
+expect 2 "give either a scene or --restart" -- "$exe" run "$data/scenes/small.yaml" --restart x.h5
+expect 2 "nothing.h5: no such checkpoint file or directory" -- "$exe" run --restart nothing.h5
+expect 2 "small.yaml: not a readable softcontact checkpoint" -- "$exe" run --restart "$data/scenes/small.yaml"
+expect 2 "--checkpoint-every expects a positive integer, got '0'" -- "$exe" run "$data/scenes/small.yaml" --checkpoint-every 0
+expect 0 '--restart FILE\|DIR' -- "$exe" run --help
 expect 2 "bad_poisson.yaml:5: 'poisson' of material 'soft' must lie in \(-1, 0.5\)" -- "$exe" check "$data/scenes/bad_poisson.yaml"
 expect 2 "typo.yaml:3: unknown key 'densty'.*did you mean 'density'" -- "$exe" run "$data/scenes/typo.yaml"
 expect 2 "meshes/missing_node_v22.msh:19: element 3 refers to node 99" -- "$exe" run "$data/scenes/broken_mesh.yaml"

@@ -128,13 +128,17 @@ TEST(FrameWriter, OwnedRowsLandAtGlobalOffsetsAndXdmfReferencesExistingDatasets)
   std::stringstream ss;
   ss << in.rdbuf();
   const std::string text = ss.str();
-  const std::regex item(R"re(<DataItem Dimensions="([0-9 ]+)"[^>]*>frames\.h5:([^<]+)</DataItem>)re");
+  // Items name a file beside the XDMF (never a temporary one) and a dataset in it.
+  const std::regex item(R"re(<DataItem Dimensions="([0-9 ]+)"[^>]*>([^:<]+):([^<]+)</DataItem>)re");
   int items = 0;
   for (auto it = std::sregex_iterator(text.begin(), text.end(), item); it != std::sregex_iterator(); ++it) {
     ++items;
-    const std::string path = (*it)[2];
-    ASSERT_GT(H5Lexists(f, path.c_str(), H5P_DEFAULT), 0) << path;
-    const hid_t d = H5Dopen2(f, path.c_str(), H5P_DEFAULT);
+    const std::string file = (*it)[2], path = (*it)[3];
+    EXPECT_TRUE(file == "mesh.h5" || std::regex_match(file, std::regex("frames/[0-9]{6}\\.h5"))) << file;
+    const hid_t ff = H5Fopen((dir + "/" + file).c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    ASSERT_GE(ff, 0) << file;
+    ASSERT_GT(H5Lexists(ff, path.c_str(), H5P_DEFAULT), 0) << file << ':' << path;
+    const hid_t d = H5Dopen2(ff, path.c_str(), H5P_DEFAULT);
     const hid_t s = H5Dget_space(d);
     hsize_t dd[2] = {0, 0};
     const int nd = H5Sget_simple_extent_dims(s, dd, nullptr);
@@ -144,7 +148,11 @@ TEST(FrameWriter, OwnedRowsLandAtGlobalOffsetsAndXdmfReferencesExistingDatasets)
     EXPECT_EQ((*it)[1], want.str()) << path;
     H5Sclose(s);
     H5Dclose(d);
+    H5Fclose(ff);
   }
+  // No temporary file is left behind.
+  for (const auto& e : std::filesystem::recursive_directory_iterator(dir))
+    EXPECT_NE(e.path().extension(), ".tmp") << e.path();
   EXPECT_EQ(items, 6 + 7);  // tets, positions, velocity, owner_rank, 2 x object; frame 1 adds depth
   EXPECT_NE(text.find("<Time Value=\"0.0070000000000000001\"/>"), std::string::npos);
   EXPECT_NE(text.find("penetration_depth"), std::string::npos);

@@ -1,0 +1,160 @@
+// Checkpoint and restart (docs/reliability.md): a run continued from a checkpoint writes
+// exactly the frames (bitwise) an uninterrupted run writes, whether it continues on the
+// rank count that wrote the checkpoint or on another one. Runs under mpiexec with 1 to 4
+// ranks; the uninterrupted reference runs on rank 0 alone.
+#include <gtest/gtest.h>
+#include <mpi.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "output_compare.hpp"
+#include "softcontact/checkpoint.hpp"
+#include "softcontact/error.hpp"
+#include "softcontact/mpi_util.hpp"
+#include "softcontact/run.hpp"
+#include "softcontact/scene.hpp"
+
+using namespace softcontact;
+namespace fs = std::filesystem;
+
+namespace {
+
+// The MPI pile (boxes, balls, friction: stiction anchors are part of the state), 120
+// steps, a frame every 10 and a checkpoint every 40 steps.
+Scene pile() {
+  Scene s = load_scene(std::string(SOFTCONTACT_TEST_DATA) + "/scenes/pile.yaml");
+  s.sim.steps = 120;
+  s.sim.output_every = 10;
+  s.sim.output_interval = 0;
+  s.sim.checkpoint_every = 40;
+  s.sim.checkpoint_keep = 3;
+  return s;
+}
+
+// Copies run directory `from` to `to` without the checkpoints after `step` (what a run
+// killed right after writing that checkpoint leaves, plus the frames it wrote since).
+void copy_run(const fs::path& from, const fs::path& to, std::int64_t step) {
+  fs::remove_all(to);
+  fs::copy(from, to, fs::copy_options::recursive);
+  for (const auto& e : fs::directory_iterator(to / "checkpoints")) {
+    const std::string stem = e.path().stem().string();
+    if (std::stoll(stem.substr(stem.find('_') + 1)) > step) fs::remove(e.path());
+  }
+}
+
+}  // namespace
+
+TEST(Restart, ContinuedRunEqualsUninterruptedOnSameAndOtherRankCounts) {
+  const int rank = comm_rank(MPI_COMM_WORLD), n = comm_size(MPI_COMM_WORLD);
+  const fs::path dir = test::scratch_dir("sc_restart");
+  RunOptions opt;
+  opt.quiet = true;
+  opt.overwrite = true;
+  std::ostringstream log;
+
+  // The references: uninterrupted, on one rank and on all ranks.
+  Scene scene = pile();
+  if (rank == 0) {
+    scene.sim.output_dir = (dir / "one").string();
+    const RunSummary r = run_scene(MPI_COMM_SELF, scene, opt, log);
+    EXPECT_EQ(r.steps, 120);
+    EXPECT_EQ(r.last_checkpoint, checkpoint_path((dir / "one").string(), 120));
+  }
+  scene.sim.output_dir = (dir / "all").string();
+  run_scene(MPI_COMM_WORLD, scene, opt, log);
+
+  // Continue (a) the N-rank run on N ranks from step 40, (b) the 1-rank run on N ranks
+  // from step 80: each must reproduce the 1-rank reference bitwise.
+  struct Case {
+    const char* from;
+    std::int64_t step;
+    const char* name;
+  };
+  for (const Case& c : {Case{"all", 40, "same rank count"}, Case{"one", 80, "1 rank, continued on all ranks"}}) {
+    const fs::path cont = dir / (std::string("cont_") + c.from);
+    if (rank == 0) copy_run(dir / c.from, cont, c.step);
+    MPI_Barrier(MPI_COMM_WORLD);
+    RestartPoint restart;
+    const Scene again = load_restart(MPI_COMM_WORLD, cont.string(), restart);
+    EXPECT_EQ(restart.info.step, c.step);
+    EXPECT_EQ(restart.info.ranks, std::string(c.from) == "one" ? 1 : n);
+    EXPECT_EQ(fs::path(restart.output_dir), cont);
+    RunOptions ropt = opt;
+    ropt.overwrite = false;  // continuing in place needs no permission
+    const RunSummary r = run_scene(MPI_COMM_WORLD, again, ropt, log, &restart);
+    EXPECT_EQ(r.first_step, c.step);
+    EXPECT_EQ(r.steps, 120 - c.step);
+    MPI_Barrier(MPI_COMM_WORLD);
+    if (rank == 0) {
+      const std::string what = std::string("after a restart (") + c.name + ", " + std::to_string(n) + " ranks)";
+      EXPECT_GT(test::expect_same_output(dir / "one", cont, what, 13), 40);
+      // The diagnostics continue too: the same rows as the reference, up to the residual
+      // penetration (the force balance, ~1e-16, is a sum over ranks in rank order, and
+      // the timings are wall times).
+      auto rows = [](const fs::path& csv) {
+        std::ifstream in(csv);
+        std::vector<std::string> out;
+        for (std::string line; std::getline(in, line);) {
+          std::size_t cut = 0;
+          for (int field = 0; field < 10 && cut != std::string::npos; ++field) cut = line.find(',', cut + 1);
+          out.push_back(line.substr(0, cut));
+        }
+        return out;
+      };
+      EXPECT_EQ(rows(dir / "one" / "diagnostics.csv"), rows(cont / "diagnostics.csv")) << what;
+    }
+  }
+  if (rank == 0) fs::remove_all(dir);
+}
+
+TEST(Restart, KeepsOnlyTheNewestCheckpoints) {
+  const int rank = comm_rank(MPI_COMM_WORLD);
+  const fs::path dir = test::scratch_dir("sc_keep");
+  Scene scene = pile();
+  scene.sim.steps = 100;
+  scene.sim.checkpoint_every = 10;
+  scene.sim.checkpoint_keep = 2;
+  scene.sim.output_dir = dir.string();
+  RunOptions opt;
+  opt.quiet = true;
+  opt.overwrite = true;
+  std::ostringstream log;
+  run_scene(MPI_COMM_WORLD, scene, opt, log);
+  if (rank == 0) {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir / "checkpoints")) names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    EXPECT_EQ(names, (std::vector<std::string>{"checkpoint_000000000090.h5", "checkpoint_000000000100.h5"}));
+    fs::remove_all(dir);
+  }
+}
+
+TEST(Restart, RefusesADamagedCheckpointWithAClearMessage) {
+  const int rank = comm_rank(MPI_COMM_WORLD);
+  const fs::path dir = test::scratch_dir("sc_damaged");
+  if (rank == 0) {
+    fs::create_directories(dir);
+    std::ofstream(dir / "truncated.h5") << "\x89HDF\r\n\x1a\n then nothing useful";
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  RestartPoint restart;
+  try {
+    load_restart(MPI_COMM_WORLD, (dir / "truncated.h5").string(), restart);
+    ADD_FAILURE() << "a damaged checkpoint was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("truncated.h5"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("not a readable softcontact checkpoint"), std::string::npos) << e.what();
+  }
+  try {
+    load_restart(MPI_COMM_WORLD, (dir / "none").string(), restart);
+    ADD_FAILURE() << "a missing checkpoint was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no such checkpoint"), std::string::npos) << e.what();
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (rank == 0) fs::remove_all(dir);
+}
