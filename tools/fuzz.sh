@@ -43,21 +43,8 @@ done
 
 # clang with libFuzzer and the sanitizer runtimes, and clang's OpenMP runtime.
 packages=(clang libclang-rt-14-dev libomp-14-dev)
-missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  echo "fuzz.sh: installing ${missing[*]}"
-  sudo=""
-  if [ "$(id -u)" != 0 ]; then
-    command -v sudo >/dev/null || { echo "fuzz.sh: need root (or sudo) to install: ${missing[*]}" >&2; exit 1; }
-    sudo=sudo
-  fi
-  export DEBIAN_FRONTEND=noninteractive
-  $sudo apt-get update -qq
-  $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
-fi
+source "$root/tools/packages.sh"
+install_missing "fuzz.sh" "${packages[@]}"
 
 # The whole library instrumented for coverage (fuzzer-no-link) and checked by ASan and
 # UBSan; only the harnesses link libFuzzer's main (tests/fuzz/CMakeLists.txt).

@@ -22,21 +22,8 @@ jobs=${JOBS:-$(OMP_NUM_THREADS= nproc)}
 # The same Debian packages as tools/setup.sh (g++ brings the sanitizer runtimes).
 packages=(g++ make cmake pkg-config libopenmpi-dev openmpi-bin petsc-dev libmetis-dev libhdf5-openmpi-dev
           libeigen3-dev libyaml-cpp-dev libgtest-dev)
-missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  echo "sanitize.sh: installing ${missing[*]}"
-  sudo=""
-  if [ "$(id -u)" != 0 ]; then
-    command -v sudo >/dev/null || { echo "sanitize.sh: need root (or sudo) to install: ${missing[*]}" >&2; exit 1; }
-    sudo=sudo
-  fi
-  export DEBIAN_FRONTEND=noninteractive
-  $sudo apt-get update -qq
-  $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
-fi
+source "$root/tools/packages.sh"
+install_missing "sanitize.sh" "${packages[@]}"
 
 # The sanitizer options hold while the build runs too: gtest_discover_tests runs the
 # test executables to list their tests.
