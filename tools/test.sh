@@ -2,7 +2,7 @@
 # The test suite: set up (install, build), then ctest. Long validation runs (label
 # 'long') and pictures ('render') are left out; run them with: bash tools/test.sh -L long.
 # The suite includes the sanitizer tests (label 'sanitize': a libFuzzer pass and the
-# tests under ASan+UBSan, about 15 min; docs/reliability.md).
+# tests under ASan+UBSan, about 12 min; docs/reliability.md).
 # Extra arguments go to ctest.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
