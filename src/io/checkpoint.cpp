@@ -279,12 +279,7 @@ CheckpointInfo read_info_serial(const std::string& path) {
       if (info.step < 0 || info.steps < 1 || info.output_every < 1 || info.frames < 0 || info.vertices < 0 ||
           !(info.dt > 0))
         throw RuntimeFailure(path + ": its run description is out of range");
-      hsize_t n = 0;
-      const hid_t d = H5Dopen2(run, "partition", H5P_DEFAULT);
-      const hid_t sp = d < 0 ? -1 : H5Dget_space(d);
-      if (sp < 0 || H5Sget_simple_extent_ndims(sp) != 1 || H5Sget_simple_extent_dims(sp, &n, nullptr) != 1) n = 0;
-      if (sp >= 0) H5Sclose(sp);
-      if (d >= 0) H5Dclose(d);
+      const auto n = static_cast<hsize_t>(h5::rows_of(run, "partition"));
       std::vector<std::int32_t> part(n);
       std::vector<double> boxes(6 * n);
       h5::read_rows(run, "partition", static_cast<gid_t>(n), 1, h5::all_rows(static_cast<gid_t>(n)), part.data(), path, false);
@@ -293,12 +288,7 @@ CheckpointInfo read_info_serial(const std::string& path) {
       for (hsize_t k = 0; k < n; ++k)
         info.boxes.push_back(ObjectBox{{boxes[6 * k], boxes[6 * k + 1], boxes[6 * k + 2]},
                                        {boxes[6 * k + 3], boxes[6 * k + 4], boxes[6 * k + 5]}});
-      const hid_t sd = H5Dopen2(run, "scene", H5P_DEFAULT);
-      const hid_t ss = sd < 0 ? -1 : H5Dget_space(sd);
-      hsize_t chars = 0;
-      if (ss < 0 || H5Sget_simple_extent_ndims(ss) != 1 || H5Sget_simple_extent_dims(ss, &chars, nullptr) != 1) chars = 0;
-      if (ss >= 0) H5Sclose(ss);
-      if (sd >= 0) H5Dclose(sd);
+      const auto chars = static_cast<hsize_t>(h5::rows_of(run, "scene"));
       info.scene_text.assign(chars, '\0');
       h5::read_rows(run, "scene", static_cast<gid_t>(chars), 1, h5::all_rows(static_cast<gid_t>(chars)),
                     info.scene_text.data(), path, false);

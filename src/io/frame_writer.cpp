@@ -118,16 +118,11 @@ FrameWriter::FrameWriter(MPI_Comm comm, const std::string& h5_path, const std::s
     const h5::QuietErrors quiet;
     const std::string mesh_path = (fs::path(dir_) / kMeshFile).string();
     const hid_t f = H5Fopen(mesh_path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-    hsize_t dims[2] = {0, 0};
-    const hid_t d = f < 0 ? -1 : H5Dopen2(f, "/mesh/points", H5P_DEFAULT);
-    const hid_t sp = d < 0 ? -1 : H5Dget_space(d);
-    if (sp >= 0) H5Sget_simple_extent_dims(sp, dims, nullptr);
-    if (sp >= 0) H5Sclose(sp);
-    if (d >= 0) H5Dclose(d);
+    const gid_t rows = f < 0 ? 0 : h5::rows_of(f, "/mesh/points");
     if (f >= 0) H5Fclose(f);
     if (f < 0) failure = "cannot continue the output in '" + dir_ + "': '" + mesh_path + "' is missing or unreadable";
-    else if (dims[0] != static_cast<hsize_t>(nv_))
-      failure = "cannot continue the output in '" + dir_ + "': its mesh has " + std::to_string(dims[0]) +
+    else if (rows != nv_)
+      failure = "cannot continue the output in '" + dir_ + "': its mesh has " + std::to_string(rows) +
                 " vertices, the scene " + std::to_string(nv_);
     // Frames 0, 1, ... up to the first missing, damaged or later one; the rest go.
     std::int64_t k = 0;

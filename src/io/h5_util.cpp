@@ -106,6 +106,17 @@ template void write_rows<std::int64_t>(hid_t, const std::string&, gid_t, int, co
 template void write_rows<std::int32_t>(hid_t, const std::string&, gid_t, int, const std::vector<GidRun>&,
                                        const std::int32_t*, bool);
 template void write_rows<char>(hid_t, const std::string&, gid_t, int, const std::vector<GidRun>&, const char*, bool);
+gid_t rows_of(hid_t loc, const std::string& name) {
+  const hid_t d = H5Dopen2(loc, name.c_str(), H5P_DEFAULT);
+  const hid_t sp = d < 0 ? -1 : H5Dget_space(d);
+  hsize_t dims[2] = {0, 0};
+  const int nd = sp < 0 ? -1 : H5Sget_simple_extent_ndims(sp);
+  if (nd < 1 || nd > 2 || H5Sget_simple_extent_dims(sp, dims, nullptr) != nd) dims[0] = 0;
+  if (sp >= 0) H5Sclose(sp);
+  if (d >= 0) H5Dclose(d);
+  return static_cast<gid_t>(dims[0]);
+}
+
 template void read_rows<double>(hid_t, const std::string&, gid_t, int, const std::vector<GidRun>&, double*,
                                 const std::string&, bool);
 template void read_rows<std::int64_t>(hid_t, const std::string&, gid_t, int, const std::vector<GidRun>&, std::int64_t*,

@@ -43,6 +43,10 @@ template <class T>
 void read_rows(hid_t loc, const std::string& name, gid_t rows, int cols, const std::vector<GidRun>& runs, T* data,
                const std::string& file, bool collective = true);
 
+/// The number of rows (first dimension) of dataset `name` in `loc`; 0 when it is missing
+/// or has no dimensions.
+gid_t rows_of(hid_t loc, const std::string& name);
+
 /// All rows of a dataset: one run [0, rows).
 inline std::vector<GidRun> all_rows(gid_t rows) { return rows > 0 ? std::vector<GidRun>{{0, rows}} : std::vector<GidRun>{}; }
 
