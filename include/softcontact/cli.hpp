@@ -1,6 +1,7 @@
 #pragma once
-// The command line: softcontact {run,check,bench,info} ... Returns the process exit status:
-// 0 success, 1 failure of the run itself, 2 bad input (scene, mesh, command line).
+// The command line: softcontact {run,check,bench,verify,info} ... Returns the process exit status:
+// 0 success, 1 failure of the run itself (verify: a limit exceeded), 2 bad input (scene,
+// mesh, command line, output directory).
 #include <mpi.h>
 
 #include <iosfwd>

@@ -21,6 +21,7 @@ struct RunOptions {
   std::optional<std::int64_t> output_every;
   std::optional<std::int64_t> checkpoint_every;   ///< steps between checkpoints
   std::optional<double> checkpoint_minutes;       ///< wall minutes between checkpoints
+  std::optional<std::int64_t> verify_every;       ///< steps between in-run checks (verify.hpp)
   bool overwrite = false;
   bool quiet = false;
 };
@@ -47,6 +48,7 @@ struct RunSummary {
   std::int64_t first_step = 0;       ///< step the run started from (a restart's checkpoint step)
   std::string last_checkpoint;       ///< the newest checkpoint written ("" when none)
   std::string stopped_by;            ///< "SIGTERM" / "SIGINT" when a signal ended the run early
+  std::string verify_json;           ///< verify_steps.json when --verify-every was given ("" otherwise)
 };
 
 /// Applies the overrides to the scene's simulation settings.

@@ -21,6 +21,7 @@
 #include "softcontact/partition.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/surface.hpp"
+#include "softcontact/verify.hpp"
 #include "softcontact/world.hpp"
 
 namespace softcontact {
@@ -73,10 +74,18 @@ public:
   /// Sum of penetration vectors per colliding vertex of the last step, (n_local,3) [m].
   const std::vector<double>& penetration() { return contact_->penetration(); }
 
-  /// Energies, momentum, contact counts, force balance and the residual penetration (a
-  /// second detection pass at the corrected positions: the largest remaining depth over
-  /// the median edge length). Collective; costs one detection, so call it per frame.
-  void measure(StepDiagnostics& d);
+  /// Energies, momentum, contact counts, force balance and the residual penetration (the
+  /// deepest surface vertex inside another body at the corrected positions, by the
+  /// independent check verify(), over the median edge length; `check` when it is the
+  /// verify() of this step already). Collective; costs a gather of the positions and a
+  /// check on rank 0, so call it per frame.
+  void measure(StepDiagnostics& d, const VerifyFrame* check = nullptr);
+
+  /// The check of `softcontact verify` (verify.hpp) on the current positions and
+  /// velocities: the owned rows gathered to rank 0 and checked there, the result
+  /// broadcast to every rank. `full` adds interior vertices and surface crossings to the
+  /// surface vertices, inverted tets and speeds. Collective.
+  VerifyFrame verify(bool full);
 
   /// Wall time per phase accumulated since the last call, and the steps it covers.
   PhaseTimes take_times(std::int64_t& steps);
@@ -171,6 +180,8 @@ private:
   double median_edge_ = 0;
   std::int64_t initial_overlaps_ = 0;
   double initial_overlap_depth_ = 0;
+  std::unique_ptr<VerifyMesh> verify_mesh_;  // rank 0, built by the first verify()
+  double free_fall_speed_ = 0;
 };
 
 }  // namespace softcontact

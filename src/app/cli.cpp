@@ -23,6 +23,7 @@
 #include "softcontact/run.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/surface.hpp"
+#include "softcontact/verify.hpp"
 
 namespace softcontact {
 
@@ -43,6 +44,8 @@ const char* kMainHelp =
     "  run SCENE.yaml     run a scene, write HDF5/XDMF frames and a diagnostics CSV\n"
     "  check SCENE.yaml   validate a scene and print a summary without running\n"
     "  bench SCENE.yaml   time a scene per step and phase, without output (docs/benchmarks.md)\n"
+    "  verify OUTPUT_DIR  check a run's frames independently: penetrations, crossings, inverted tets,\n"
+    "                     speeds (docs/validation.md, \"softcontact verify\")\n"
     "  info               version and the libraries this build uses\n"
     "\n"
     "options:\n"
@@ -50,7 +53,8 @@ const char* kMainHelp =
     "  --version          print the version\n"
     "\n"
     "exit status: 0 success (also a run stopped by SIGTERM/SIGINT after writing a checkpoint),\n"
-    "1 the run failed, 2 bad input (scene, mesh, command line, checkpoint), 3 numerical failure\n"
+    "1 the run failed (verify: a limit exceeded), 2 bad input (scene, mesh, command line,\n"
+    "checkpoint, output directory), 3 numerical failure\n"
     "PETSc options (e.g. -log_view) are read from the PETSC_OPTIONS environment variable.\n";
 
 const char* kRunHelp =
@@ -71,6 +75,9 @@ const char* kRunHelp =
     "  --restart FILE|DIR continue a run from a checkpoint (or the newest one in a run's output\n"
     "                     directory), on any number of ranks, bitwise as if it had not stopped;\n"
     "                     frames continue in the same directory unless --output names another\n"
+    "  --verify-every N   after every N-th step, the check of 'softcontact verify' on all positions\n"
+    "                     (gathered to rank 0); the maxima are printed at the end and written to\n"
+    "                     OUTPUT_DIR/verify_steps.json\n"
     "  --quiet            no progress line (for batch logs); the final summary is kept\n"
     "  -h, --help         this help\n"
     "\n"
@@ -100,6 +107,29 @@ const char* kBenchHelp =
     "  --per-step FILE    write one row per timed step: colliding points and phase times\n"
     "  --quiet            no progress lines\n"
     "  -h, --help         this help\n";
+
+const char* kVerifyHelp =
+    "usage: softcontact verify OUTPUT_DIR [options]\n"
+    "\n"
+    "Checks the frames a run wrote, independently of the collision detector: surface and\n"
+    "interior vertices inside other bodies and how deep (distance to that body's surface),\n"
+    "surface edges through other bodies' surface triangles, inverted tets, and the fastest\n"
+    "vertex against the free-fall speed v_ff = sqrt(v0^2 + 2 |g| H) of the scene. Depths are\n"
+    "in median tet edge lengths h. One line per frame, a summary, and a JSON file.\n"
+    "\n"
+    "  --frames SPEC            all (default), first, last, or a comma list of frame numbers\n"
+    "                           and ranges A:B[:STEP] (B included; negative: from the end)\n"
+    "  --skip-frames-before T   do not check frames before simulated time T [s]\n"
+    "  --max-depth F            largest surface-vertex depth, in h (default 0.005)\n"
+    "  --max-interior-depth F   largest interior-vertex depth, in h (default: none)\n"
+    "  --max-crossings N        most surface crossings in a frame (default: none)\n"
+    "  --max-inverted N         most inverted tets at the last checked frame (default 0)\n"
+    "  --max-speed-ratio R      largest speed / v_ff (default 3)\n"
+    "  --json FILE              the JSON summary (default OUTPUT_DIR/verify.json)\n"
+    "  -h, --help               this help\n"
+    "\n"
+    "exit status: 0 within the limits, 1 a limit exceeded (or a non-finite vertex), 2 bad\n"
+    "input (missing directory or file, unreadable HDF5, bad option).\n";
 
 const char* kInfoHelp = "usage: softcontact info\n\nPrints the version and the libraries of this build.\n";
 
@@ -285,6 +315,8 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
     opt.checkpoint_every = parse_count("--checkpoint-every", a.values.at("--checkpoint-every"), "run");
   if (a.values.count("--checkpoint-minutes"))
     opt.checkpoint_minutes = parse_seconds("--checkpoint-minutes", a.values.at("--checkpoint-minutes"), "run");
+  if (a.values.count("--verify-every"))
+    opt.verify_every = parse_count("--verify-every", a.values.at("--verify-every"), "run");
   opt.overwrite = has(a, "--overwrite");
   opt.quiet = has(a, "--quiet");
   RestartPoint restart;
@@ -328,6 +360,7 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
         << "output:      " << r.xdmf << "  (open in ParaView: paraview " << r.xdmf << ")\n"
         << "             " << r.h5 << "  (HDF5, layout in docs/output-format.md)\n"
         << "diagnostics: " << r.csv << "\n";
+    if (!r.verify_json.empty()) out << "verify:      " << r.verify_json << "\n";
   }
   return 0;
 }
@@ -352,6 +385,63 @@ int cmd_bench(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err
     files.write(r);
   }
   return 0;
+}
+
+double parse_limit(const std::string& opt, const std::string& v) {
+  std::size_t pos = 0;
+  double x = 0;
+  try {
+    x = std::stod(v, &pos);
+  } catch (const std::exception&) {
+    pos = 0;
+  }
+  if (pos != v.size() || v.empty() || !(x >= 0) || std::isnan(x))
+    usage_error(opt + " expects a non-negative number, got '" + v + "'", "verify");
+  return x;
+}
+
+// Runs on rank 0 alone; the exit status (or the input error) goes to every rank.
+int cmd_verify(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) {
+  if (a.positional.empty()) usage_error("'verify' needs an output directory", "verify");
+  if (a.positional.size() > 1) usage_error("unexpected argument '" + a.positional[1] + "'", "verify");
+  VerifyOutputOptions opt;
+  auto value = [&](const char* key) { return a.values.count(key) ? &a.values.at(key) : nullptr; };
+  if (auto v = value("--frames")) {
+    if (v->empty()) usage_error("--frames expects all, first, last or a list of frames", "verify");
+    opt.frames = *v;
+  }
+  if (auto v = value("--max-depth")) opt.thresholds.max_depth = parse_limit("--max-depth", *v);
+  if (auto v = value("--max-interior-depth")) opt.thresholds.max_interior_depth = parse_limit("--max-interior-depth", *v);
+  if (auto v = value("--max-crossings")) opt.thresholds.max_crossings = parse_nonnegative("--max-crossings", *v, "verify");
+  if (auto v = value("--max-inverted")) opt.thresholds.max_inverted = parse_nonnegative("--max-inverted", *v, "verify");
+  if (auto v = value("--max-speed-ratio")) opt.thresholds.max_speed_ratio = parse_limit("--max-speed-ratio", *v);
+  if (auto v = value("--skip-frames-before")) {
+    opt.skip_before = parse_limit("--skip-frames-before", *v);
+    opt.skip = true;
+  }
+  if (auto v = value("--json")) {
+    if (v->empty()) usage_error("--json expects a file name", "verify");
+    opt.json = *v;
+  }
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  int code = 0;
+  std::string message;
+  if (rank == 0) {
+    try {
+      code = verify_output(a.positional[0], opt, out, err);
+    } catch (const InputError& e) {
+      message = e.what();
+      code = kExitInputError;
+    }
+  }
+  MPI_Bcast(&code, 1, MPI_INT, 0, comm);
+  int length = static_cast<int>(message.size());
+  MPI_Bcast(&length, 1, MPI_INT, 0, comm);
+  message.resize(static_cast<std::size_t>(length));
+  MPI_Bcast(message.data(), length, MPI_CHAR, 0, comm);
+  if (code == kExitInputError) throw InputError(message);
+  return code;
 }
 
 int cmd_info(std::ostream& out) {
@@ -391,7 +481,7 @@ int dispatch(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out
   if (cmd == "run") {
     const Args a = parse_args(argc, argv, 2, "run",
                               {"--steps", "--end-time", "--output", "--output-every", "--restart", "--checkpoint-every",
-                               "--checkpoint-minutes"},
+                               "--checkpoint-minutes", "--verify-every"},
                               {"--overwrite", "--quiet"});
     return a.help ? say(kRunHelp) : cmd_run(a, comm, out, err);
   }
@@ -403,12 +493,19 @@ int dispatch(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out
     const Args a = parse_args(argc, argv, 2, "bench", {"--steps", "--warmup", "--csv", "--per-step"}, {"--quiet"});
     return a.help ? say(kBenchHelp) : cmd_bench(a, comm, out, err);
   }
+  if (cmd == "verify") {
+    const Args a = parse_args(argc, argv, 2, "verify",
+                              {"--frames", "--max-depth", "--max-interior-depth", "--max-crossings", "--max-inverted",
+                               "--max-speed-ratio", "--json", "--skip-frames-before"},
+                              {});
+    return a.help ? say(kVerifyHelp) : cmd_verify(a, comm, out, err);
+  }
   if (cmd == "info") {
     const Args a = parse_args(argc, argv, 2, "info", {}, {});
     return a.help ? say(kInfoHelp) : (rank == 0 ? cmd_info(out) : 0);
   }
   std::string msg = "unknown command '" + cmd + "'";
-  const std::string guess = detail::nearest(cmd, {"run", "check", "bench", "info", "help"});
+  const std::string guess = detail::nearest(cmd, {"run", "check", "bench", "verify", "info", "help"});
   if (!guess.empty()) msg += " (did you mean '" + guess + "'?)";
   usage_error(msg, nullptr);
 }
@@ -420,6 +517,7 @@ int run_cli(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out,
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);
   int code = 0;
+  bool input_error = false;
   std::string message;
   try {
     code = dispatch(argc, argv, comm, out, err);
@@ -427,6 +525,7 @@ int run_cli(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out,
     // Input is read identically on every rank, so every rank gets here together;
     // the lowest rank that failed speaks.
     code = kExitInputError;
+    input_error = true;
     message = e.what();
   } catch (const NumericalFailure& e) {
     // Detected collectively: every rank is here with the same message.
@@ -441,7 +540,8 @@ int run_cli(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out,
     if (size > 1) MPI_Abort(comm, 1);
     return 1;
   }
-  int failed_rank = code != 0 ? rank : size;
+  // A command may also return a status of its own on every rank (verify: 1, a limit exceeded).
+  int failed_rank = input_error ? rank : size;
   int first = size;
   MPI_Allreduce(&failed_rank, &first, 1, MPI_INT, MPI_MIN, comm);
   if (first < size) {

@@ -23,6 +23,7 @@
 #include "softcontact/simulator.hpp"
 #include "softcontact/forces.hpp"
 #include "softcontact/surface.hpp"
+#include "softcontact/verify.hpp"
 #include "softcontact/world.hpp"
 
 namespace softcontact {
@@ -306,10 +307,22 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     throw NumericalFailure(m.str());
   };
 
+  // In-run checks (--verify-every N): the check of softcontact verify after every N-th
+  // step, kept as running maxima; a frame at the same step takes its residual from it.
+  const std::int64_t verify_every = opt.verify_every ? *opt.verify_every : 0;
+  VerifyMaxima verify_max;
+  VerifyFrame checked;
+  std::int64_t checked_step = -1;
+  auto verify_step = [&] {
+    checked = simulator.verify(true);
+    checked_step = step;
+    verify_max.add(checked);
+  };
+
   auto record = [&] {
     const double t0 = now();
     StepDiagnostics d;
-    simulator.measure(d);
+    simulator.measure(d, checked_step == step ? &checked : nullptr);
     writer->write_frame(d.step, d.time, world,
                         {{"contact_forces", "contact_force", 3, simulator.contact_force().data()},
                          {"penetration", "penetration", 3, simulator.penetration().data()}});
@@ -363,7 +376,10 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
           << std::flush;
   };
 
-  if (!continuing) record();
+  if (!continuing) {
+    if (verify_every > 0) verify_step();
+    record();
+  }
 
   const StopSignals signals;
   Progress progress(log, rank == 0 && !opt.quiet, nsteps, sim.dt);
@@ -373,6 +389,7 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
   while (step < nsteps) {
     simulator.step();
     ++step;
+    if (verify_every > 0 && step % verify_every == 0) verify_step();
     if (step % every == 0 || step == nsteps) record();
     // One reduction a step: a stop signal on any rank, the health of every rank's
     // vertices, and the wall time since the last checkpoint (rank clocks differ).
@@ -391,6 +408,29 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     progress.update(step);
   }
   writer->close();
+  if (verify_every > 0 && rank == 0) {
+    summary.verify_json = (shown / "verify_steps.json").string();
+    const InsideStats& w = verify_max.deepest.surface;
+    auto name = [&](std::int32_t o) { return scene.objects[static_cast<std::size_t>(o)].name; };
+    std::ostringstream line;
+    line << std::setprecision(4) << "verify (every " << verify_every << " steps, " << verify_max.checks
+         << " checks): deepest surface vertex " << verify_max.surface_depth.value << " median edges";
+    if (w.vertex >= 0)
+      line << " (step " << verify_max.surface_depth.step << ": vertex " << w.vertex << " of " << name(w.object)
+           << " in " << name(w.in_object) << ")";
+    line << ", at most " << verify_max.surface_count.value << " inside; interior vertices "
+         << verify_max.interior_depth.value << "; crossings at most " << verify_max.crossings.value << " ("
+         << verify_max.crossings_without_inside_vertex.value << " with no vertex inside), deepest "
+         << verify_max.crossing_depth.value << "; inverted tets at most " << verify_max.inverted.value
+         << "; speed at most " << verify_max.speed_ratio.value << " x free fall\n";
+    log << line.str();
+    std::ostringstream js;
+    js << "{\"every\": " << verify_every << ", \"first_step\": " << first << ", \"last_step\": " << step
+       << ", \"maxima\": " << to_json(verify_max) << "}\n";
+    std::ofstream json(dir / "verify_steps.json", std::ios::trunc);
+    json << js.str();
+    if (!json.flush()) throw RuntimeFailure("cannot write '" + summary.verify_json + "'");
+  }
   summary.steps = step - first;
   summary.sim_time = simulator.time();
   summary.wall_seconds = now() - wall0;

@@ -1,0 +1,197 @@
+#pragma once
+// An independent check of a simulated state (docs/validation.md, "softcontact verify"):
+// how deep bodies are inside each other, whether their surfaces cross, inverted tets and
+// runaway speeds. It shares no code with the collision detector (src/collide): its own
+// barycentric point-in-tet test, its own grid of cells, exact point-triangle distances
+// and segment-triangle crossings, so that it can judge the detector and the contact
+// response instead of repeating their assumptions.
+//
+// The core works on the whole scene as plain global arrays (global ids as in frames.h5:
+// objects in scene order, each object's vertices, tets and triangles consecutive), with
+// no MPI: `softcontact verify` reads them from a run's output, and a run gathers its
+// positions to rank 0 for it (Simulator::verify, `softcontact run --verify-every`).
+//
+// Definitions (all distances in metres; h = the median tet edge length at rest):
+//  - A vertex of body A is *inside* body B (B != A, not both kinematic) when it lies in a
+//    closed tet of B (barycentric coordinates >= -1e-12) and its distance to B's surface
+//    exceeds 1e-9 h. Its *depth* is that distance: the minimum over B's surface triangles
+//    of the exact point-triangle distance. A vertex inside several bodies counts once,
+//    with the largest depth. Self-contact is not checked.
+//  - A *crossing* is a pair (surface edge of A, surface triangle of B) where the edge's
+//    endpoints lie on opposite sides of the triangle's plane, each farther from it than
+//    1e-9 h, and the crossing point inside the closed triangle (barycentric coordinates
+//    >= -1e-12). Its depth is the largest depth in B of the part of the edge inside B that
+//    it bounds: from the crossing towards the triangle's inner side, up to the edge's
+//    next crossing with B's surface or the edge's end. That maximum is searched by up to
+//    kCrossingSamples + 1 evenly spaced points and a golden-section refinement around
+//    the deepest to 1e-4 h (verify.cpp, deepest_on_segment). A crossing counts when its
+//    depth exceeds 1e-9 h, like a vertex; shallower ones are `grazing`.
+//  - A tet is *inverted* when its signed volume, times the sign of its rest volume, is
+//    <= 0 (flat tets count).
+#include <cstdint>
+#include <iosfwd>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "softcontact/mesh.hpp"
+#include "softcontact/scene.hpp"
+#include "softcontact/surface.hpp"
+
+namespace softcontact {
+
+/// Points sampled on the inner part of a crossing edge for the crossing's depth.
+inline constexpr int kCrossingSamples = 8;
+
+/// The scene's connectivity in global ids. Fill the first six arrays, then call
+/// prepare_verify_mesh() with the rest positions for the rest.
+struct VerifyMesh {
+  std::vector<gid_t> tets;                     ///< (m,4) global vertex ids
+  std::vector<std::int32_t> tet_object;        ///< (m) body of each tet
+  std::vector<std::int32_t> vertex_object;     ///< (n) body of each vertex
+  std::vector<gid_t> triangles;                ///< (s,3) outward surface triangles (global vertex ids)
+  std::vector<std::int32_t> triangle_object;   ///< (s) body of each triangle; filled from its first vertex when empty
+  std::vector<char> object_fixed;              ///< (objects) 1 for kinematic bodies; sized from the ids when empty
+
+  // ---- derived by prepare_verify_mesh
+  std::vector<signed char> rest_sign;          ///< (m) sign of each tet's rest volume (+1 for a flat one)
+  std::vector<char> surface_vertex;            ///< (n) 1 for vertices of a surface triangle
+  std::vector<gid_t> edges;                    ///< (e,2) the surface's edges, once each, a < b, sorted
+  std::vector<gid_t> object_triangle_begin;    ///< (objects+1) CSR of object_triangles
+  std::vector<gid_t> object_triangles;         ///< surface triangles of each body, ascending
+  double median_edge = 0;                      ///< median over tets of their six rest edge lengths [m]
+
+  std::size_t num_vertices() const { return vertex_object.size(); }
+  std::size_t num_tets() const { return tet_object.size(); }
+  std::size_t num_triangles() const { return triangles.size() / 3; }
+  std::size_t num_objects() const { return object_fixed.size(); }
+};
+
+/// Checks the arrays' sizes and every id (throws InputError naming `source` and the
+/// first bad row), then fills the derived arrays from the rest positions `rest` (n,3).
+/// The median edge is taken like the simulator's (each tet's six edges, edges shared by
+/// several tets counted once per tet), so depths / median edge mean the same in both.
+void prepare_verify_mesh(VerifyMesh& mesh, const double* rest, const std::string& source);
+
+/// The scene's VerifyMesh (objects in scene order; `surfaces` = extract_surfaces(scene)),
+/// prepared with the scene's initial positions as rest positions.
+VerifyMesh verify_mesh_of(const Scene& scene, const std::vector<Surface>& surfaces);
+
+/// The scene's initial positions as one (n,3) array in global vertex order.
+std::vector<double> initial_positions(const Scene& scene);
+
+/// Fastest speed a free fall in the scene reaches: v_ff = sqrt(v0^2 + 2 |g| H), where H
+/// is the height of the highest vertex of `x0` (n,3) above the lowest one, measured along
+/// g (every vertex, kinematic ones included), and v0 the largest initial speed [m/s].
+double free_fall_speed(const double* x0, std::size_t n, const Vec3& gravity, double v0);
+/// The same for a scene: x0 its initial positions, v0 the largest of the objects' initial
+/// velocities and prescribed motions.
+double free_fall_speed(const Scene& scene);
+
+/// What to check besides the surface vertices; `free_fall_speed` <= 0 leaves the speed
+/// ratio at 0.
+struct VerifyOptions {
+  bool interior = true;          ///< also vertices that are not on a surface
+  bool crossings = true;         ///< surface edge / surface triangle crossings
+  double free_fall_speed = 0;    ///< v_ff [m/s] for VerifyFrame::speed_ratio
+};
+
+/// Vertices inside other bodies (surface or interior ones).
+struct InsideStats {
+  std::int64_t count = 0;
+  double max_depth = 0;          ///< [m]
+  double p99_depth = 0;          ///< [m] 99th percentile of the counted depths (nearest rank)
+  gid_t vertex = -1;             ///< the deepest vertex
+  std::int32_t object = -1;      ///< its body
+  std::int32_t in_object = -1;   ///< the body it is deepest in
+};
+
+struct CrossingStats {
+  std::int64_t count = 0;        ///< crossing (edge, triangle) pairs deeper than the tolerance
+  /// ... of which neither edge endpoint is inside the triangle's body nor any triangle
+  /// corner inside the edge's body: surfaces that pass through each other edge on edge.
+  std::int64_t without_inside_vertex = 0;
+  /// Pairs that cross geometrically but whose inside part is no deeper than the tolerance
+  /// (an edge through a triangle's rim where two surfaces touch): not in `count`.
+  std::int64_t grazing = 0;
+  double max_depth = 0;          ///< [m]
+  gid_t edge[2] = {-1, -1};      ///< the deepest crossing: edge (global vertex ids) ...
+  gid_t triangle = -1;           ///< ... and the triangle it crosses
+  std::int32_t object = -1, in_object = -1;  ///< the edge's and the triangle's bodies
+};
+
+/// The check of one state. Trivially copyable (broadcast as bytes).
+struct VerifyFrame {
+  std::int64_t step = 0;
+  double time = 0;               ///< [s]
+  double median_edge = 0;        ///< h [m]
+  InsideStats surface;           ///< surface vertices inside other bodies
+  InsideStats interior;          ///< interior vertices inside other bodies (with VerifyOptions::interior)
+  CrossingStats crossings;       ///< with VerifyOptions::crossings
+  std::int64_t inverted = 0;     ///< inverted or flat tets
+  gid_t first_inverted = -1;     ///< the lowest such tet id
+  std::int64_t nonfinite = 0;    ///< vertices with a non-finite position or velocity
+  double max_speed = 0;          ///< [m/s] fastest vertex
+  gid_t fastest = -1;            ///< its id (the lowest on a tie)
+  double speed_ratio = 0;        ///< max_speed / v_ff
+
+  double surface_depth() const { return surface.max_depth / median_edge; }    ///< in median edges
+  double interior_depth() const { return interior.max_depth / median_edge; }  ///< in median edges
+  double crossing_depth() const { return crossings.max_depth / median_edge; } ///< in median edges
+};
+static_assert(std::is_trivially_copyable_v<VerifyFrame>, "VerifyFrame is broadcast as bytes");
+
+/// Checks positions `x` (n,3) and velocities `v` (n,3, or null: no speeds) of `mesh`.
+/// OpenMP over vertices, edges and tets; the result does not depend on the thread count.
+VerifyFrame verify_frame(const VerifyMesh& mesh, const double* x, const double* v, const VerifyOptions& opt = {});
+
+/// A maximum over checks, with the step and time where it occurred.
+struct VerifyPeak {
+  double value = 0;
+  std::int64_t step = -1;
+  double time = 0;
+};
+
+/// The worst of several checks (in-run checks every N steps, the frames of an output).
+struct VerifyMaxima {
+  std::int64_t checks = 0;
+  VerifyPeak surface_count, surface_depth;     ///< depth in median edges
+  VerifyPeak interior_count, interior_depth;
+  VerifyPeak crossings, crossings_without_inside_vertex, crossing_depth;
+  VerifyPeak inverted, nonfinite, max_speed, speed_ratio;
+  VerifyFrame deepest;                         ///< the check with the deepest surface vertex
+
+  void add(const VerifyFrame& f);
+};
+
+/// One check as a JSON object (one line; non-finite numbers as null).
+std::string to_json(const VerifyFrame& f);
+/// The maxima as a JSON object.
+std::string to_json(const VerifyMaxima& m);
+
+/// Limits of `softcontact verify`; a negative or infinite limit is not checked.
+struct VerifyThresholds {
+  double max_depth = 0.005;            ///< surface-vertex depth, in median edges, every frame
+  double max_interior_depth = -1;      ///< interior-vertex depth, in median edges (unlimited)
+  std::int64_t max_crossings = -1;     ///< crossings per frame (unlimited)
+  std::int64_t max_inverted = 0;       ///< inverted tets at the last checked frame
+  double max_speed_ratio = 3;          ///< max speed / v_ff, every frame
+};
+
+/// Options of `softcontact verify OUTPUT_DIR`.
+struct VerifyOutputOptions {
+  std::string frames = "all";          ///< all | last | first | comma list of N and A:B[:STEP], negative from the end
+  VerifyThresholds thresholds;
+  std::string json;                    ///< the JSON summary ("" : OUTPUT_DIR/verify.json)
+  double skip_before = 0;              ///< frames at earlier times are not checked [s]
+  bool skip = false;                   ///< skip_before applies
+};
+
+/// Checks the frames of a run's output directory (mesh.h5, frames/NNNNNN.h5, scene.yaml
+/// for gravity and initial velocities), prints one line per frame and a summary to `out`
+/// and writes the JSON summary. Returns 0 when every limit holds, 1 otherwise. Throws
+/// InputError naming the file for a missing directory or file, or one HDF5 cannot read.
+/// One process; no MPI.
+int verify_output(const std::string& dir, const VerifyOutputOptions& opt, std::ostream& out, std::ostream& err);
+
+}  // namespace softcontact

@@ -1,0 +1,124 @@
+// Maxima over checks and their JSON form (verify.hpp).
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "softcontact/verify.hpp"
+
+namespace softcontact {
+
+namespace {
+
+void peak(VerifyPeak& p, double value, const VerifyFrame& f) {
+  if (p.step < 0 || value > p.value) {
+    p.value = value;
+    p.step = f.step;
+    p.time = f.time;
+  }
+}
+
+std::string num(double x) {
+  if (!std::isfinite(x)) return "null";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.9g", x);
+  return buf;
+}
+
+class Json {
+public:
+  Json& key(const char* k) {
+    s_ << (first_ ? "" : ", ") << '"' << k << "\": ";
+    first_ = false;
+    return *this;
+  }
+  Json& val(double x) {
+    s_ << num(x);
+    return *this;
+  }
+  Json& val(std::int64_t x) {
+    s_ << x;
+    return *this;
+  }
+  Json& raw(const std::string& x) {
+    s_ << x;
+    return *this;
+  }
+  std::string str() const {
+    std::string out(1, '{');
+    out += s_.str();
+    out += '}';
+    return out;
+  }
+
+private:
+  std::ostringstream s_;
+  bool first_ = true;
+};
+
+std::string inside_json(const InsideStats& s, double h) {
+  Json j;
+  j.key("count").val(s.count).key("max_depth").val(s.max_depth).key("max_depth_edges").val(s.max_depth / h);
+  j.key("p99_depth").val(s.p99_depth).key("p99_depth_edges").val(s.p99_depth / h);
+  j.key("vertex").val(s.vertex).key("object").val(std::int64_t{s.object}).key("in_object").val(std::int64_t{s.in_object});
+  return j.str();
+}
+
+std::string peak_json(const VerifyPeak& p) {
+  Json j;
+  j.key("value").val(p.value).key("step").val(p.step).key("time").val(p.time);
+  return j.str();
+}
+
+}  // namespace
+
+void VerifyMaxima::add(const VerifyFrame& f) {
+  if (checks == 0 || f.surface.max_depth > deepest.surface.max_depth) deepest = f;
+  ++checks;
+  peak(surface_count, static_cast<double>(f.surface.count), f);
+  peak(surface_depth, f.surface_depth(), f);
+  peak(interior_count, static_cast<double>(f.interior.count), f);
+  peak(interior_depth, f.interior_depth(), f);
+  peak(crossings, static_cast<double>(f.crossings.count), f);
+  peak(crossings_without_inside_vertex, static_cast<double>(f.crossings.without_inside_vertex), f);
+  peak(crossing_depth, f.crossing_depth(), f);
+  peak(inverted, static_cast<double>(f.inverted), f);
+  peak(nonfinite, static_cast<double>(f.nonfinite), f);
+  peak(max_speed, f.max_speed, f);
+  peak(speed_ratio, f.speed_ratio, f);
+}
+
+std::string to_json(const VerifyFrame& f) {
+  const double h = f.median_edge;
+  Json c;
+  c.key("count").val(f.crossings.count).key("without_inside_vertex").val(f.crossings.without_inside_vertex);
+  c.key("grazing").val(f.crossings.grazing);
+  c.key("max_depth").val(f.crossings.max_depth).key("max_depth_edges").val(f.crossings.max_depth / h);
+  std::ostringstream edge;
+  edge << '[' << f.crossings.edge[0] << ", " << f.crossings.edge[1] << ']';
+  c.key("edge").raw(edge.str());
+  c.key("triangle").val(f.crossings.triangle).key("object").val(std::int64_t{f.crossings.object});
+  c.key("in_object").val(std::int64_t{f.crossings.in_object});
+  Json j;
+  j.key("step").val(f.step).key("time").val(f.time).key("median_edge").val(h);
+  j.key("surface").raw(inside_json(f.surface, h)).key("interior").raw(inside_json(f.interior, h));
+  j.key("crossings").raw(c.str());
+  j.key("inverted").val(f.inverted).key("first_inverted").val(f.first_inverted).key("nonfinite").val(f.nonfinite);
+  j.key("max_speed").val(f.max_speed).key("fastest_vertex").val(f.fastest).key("speed_ratio").val(f.speed_ratio);
+  return j.str();
+}
+
+std::string to_json(const VerifyMaxima& m) {
+  Json j;
+  j.key("checks").val(m.checks);
+  j.key("surface_count").raw(peak_json(m.surface_count)).key("surface_depth_edges").raw(peak_json(m.surface_depth));
+  j.key("interior_count").raw(peak_json(m.interior_count)).key("interior_depth_edges").raw(peak_json(m.interior_depth));
+  j.key("crossings").raw(peak_json(m.crossings));
+  j.key("crossings_without_inside_vertex").raw(peak_json(m.crossings_without_inside_vertex));
+  j.key("crossing_depth_edges").raw(peak_json(m.crossing_depth));
+  j.key("inverted").raw(peak_json(m.inverted)).key("nonfinite").raw(peak_json(m.nonfinite));
+  j.key("max_speed").raw(peak_json(m.max_speed)).key("speed_ratio").raw(peak_json(m.speed_ratio));
+  j.key("deepest").raw(m.checks > 0 ? to_json(m.deepest) : "null");
+  return j.str();
+}
+
+}  // namespace softcontact
