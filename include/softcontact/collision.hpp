@@ -35,7 +35,7 @@ struct Collision {
   gid_t triangle_gid = -1;              ///< global id of T_i (sort key 2)
   std::int32_t object = -1;             ///< object of i
   std::int32_t other_object = -1;       ///< object B (== object for a self-collision)
-  bool fallback = false;                ///< depth from the nearest surface triangle (no border point)
+  bool fallback = false;                ///< depth not from the consistent depth: entry rule or nearest surface triangle
 };
 
 /// Per-step counts for the diagnostics.
@@ -43,7 +43,9 @@ struct CollisionStats {
   std::int64_t colliding_points = 0;    ///< distinct vertices inside another body
   std::int64_t collisions = 0;          ///< records (a vertex inside two bodies counts twice)
   std::int64_t border_points = 0;       ///< records whose point has at least one border edge into B
-  std::int64_t deep_fallbacks = 0;      ///< regions with no border point: nearest-triangle fallback
+  std::int64_t deep_fallbacks = 0;      ///< regions with no border point: entry rule or nearest-triangle fallback
+  std::int64_t entry_records = 0;       ///< records resolved towards where the point entered B (penetration_depth.hpp, item 5)
+  std::int64_t redirected_depths = 0;   ///< consistent depths more than twice the nearest surface distance, replaced (item 6)
   std::int64_t self_collisions = 0;     ///< vertices inside a non-incident tet of their own object (no records)
   std::int64_t degenerate_skipped = 0;  ///< degenerate triangles/tets/edges and non-finite positions met and handled
   /// Largest |x~ - x^t| / thinnest object thickness (tunnelling risk; 0 without x^t).

@@ -47,19 +47,43 @@ namespace softcontact {
 
 class Halo;
 
-/// Static-friction anchor of a point: where on the other body it sticks (barycentric
-/// coordinates in a surface triangle of that body, by global vertex ids, so that it
-/// survives ghost rebuilds, migration and restarts).
-struct StictionAnchor {
+/// Static-friction anchor of a point against one other body: where on that body it
+/// sticks (barycentric coordinates in a surface triangle of that body, by global vertex
+/// ids, so that it survives ghost rebuilds, migration and restarts).
+struct AnchorEntry {
   std::int64_t step = -1;  ///< last step (respond() call) with a contact to this anchor's body
   std::int32_t object = -1;
   gid_t tri[3] = {-1, -1, -1};
   double bary[3] = {0, 0, 0};
 };
 
+/// The anchors of one point, one per other body it touches (a point in a corner between
+/// a floor and a wall sticks to both), at most kPerPoint; a new body takes the entry
+/// unused the longest.
+struct StictionAnchor {
+  static constexpr int kPerPoint = 2;
+  AnchorEntry entry[kPerPoint];
+  /// The entry for `object`, or null.
+  AnchorEntry* find(std::int32_t object) {
+    for (AnchorEntry& e : entry)
+      if (e.object == object) return &e;
+    return nullptr;
+  }
+  const AnchorEntry* find(std::int32_t object) const { return const_cast<StictionAnchor*>(this)->find(object); }
+  /// The entry for `object`, else the one unused the longest.
+  AnchorEntry& slot_for(std::int32_t object) {
+    if (AnchorEntry* e = find(object)) return *e;
+    AnchorEntry* oldest = &entry[0];
+    for (AnchorEntry& e : entry)
+      if (e.step < oldest->step) oldest = &e;
+    return *oldest;
+  }
+};
+
 struct ContactStats {
   std::int64_t collisions = 0;      ///< records processed
   std::int64_t fixed_pairs = 0;     ///< collisions between two kinematic sides (no force)
+  std::int64_t separating = 0;      ///< collisions deeper than the step's approach allows, resolved at the separation speed
   std::int64_t sticking = 0;        ///< friction: collisions in static friction
   std::int64_t sliding = 0;         ///< friction: collisions in kinetic friction
   double force_balance = 0;         ///< |sum_v F_v| / sum_v |F_v| over this rank's owned vertices (0 without contact)
@@ -108,9 +132,10 @@ private:
   // through small arrays instead of jumping through the whole World.
   struct Slot {
     double mass, inv_mass;
-    double column_sum;       // s_j
+    double share[3];         // summed pushes: sum over its collisions of beta p (the shares)
     double dx[3];            // x - x^t (x~, then corrected)
     double normal[3];        // sum of normal local forces
+    double normal_dynamic[3];// their dynamic part (changes velocities)
     double friction[3];      // sum of friction local forces
     double depth[3];         // sum of d_i as point i
     gid_t gid;
@@ -125,6 +150,8 @@ private:
     // coefficients with a tangential vector in place of d_i.
     double ai;
     double aT[3];
+    double d[3];             // the depth removed in this step (d_i, or less for an old overlap)
+    double dynamic;          // the part of d closed with velocity (the step's approach), in [0, 1]
     double scale;            // friction: multiple of the tangential vector applied
     double e[3];             // friction: tangential vector
     bool keep_anchor;        // friction: stuck to a valid anchor, which stays
@@ -145,12 +172,15 @@ private:
   void reduce(const std::vector<Collision>& col, int dim, Emit&& emit, Target&& target, Halo* halo);
   template <class Value>
   void reply(int dim, Value&& value, Halo* halo);
+  void effective_depths(const std::vector<Collision>& c, double dt);
   std::int64_t normal_coefficients(const std::vector<Collision>& c, double dt);
   void friction_coefficients(const std::vector<Collision>& c, ContactStats& stats);
   void materialize();
 
   std::vector<std::int32_t> object_material_;             // material of each object
   std::vector<std::vector<Friction>> friction_;           // [material][material]
+  double separation_speed_ = 1.0;                          // [m/s] bound for resolving old overlaps
+  std::int64_t capped_ = 0;                                // collisions limited by it, last respond()
   std::vector<std::int32_t> slot_of_;                      // n_local, -1 when not taking part
   std::vector<index_t> vertex_of_;                         // per slot
   std::vector<Slot> slots_;

@@ -162,7 +162,7 @@ private:
   void select_points(const World& w);
   void narrow_phase(const World& w, CollisionStats& st);
   void group_pairs(CollisionStats& st);
-  void depth(const World& w, std::vector<Collision>& out, CollisionStats& st);
+  void depth(const World& w, const double* x_prev, std::vector<Collision>& out, CollisionStats& st);
 };
 
 CollisionDetector::Impl::Impl(const World& w, const CollisionSettings& s, const double* rest_x)
@@ -395,7 +395,8 @@ void CollisionDetector::Impl::group_pairs(CollisionStats& st) {
 }
 
 // Step 6 and 7.
-void CollisionDetector::Impl::depth(const World& w, std::vector<Collision>& out, CollisionStats& st) {
+void CollisionDetector::Impl::depth(const World& w, const double* x_prev, std::vector<Collision>& out,
+                                    CollisionStats& st) {
   const double* x = w.x.data();
   const std::size_t ngroups = group_begin.size() - 1;
   penetrated.clear();
@@ -416,11 +417,13 @@ void CollisionDetector::Impl::depth(const World& w, std::vector<Collision>& out,
   DepthInput in;
   in.world = &w;
   in.x = x;
+  in.x_prev = x_prev;
   in.topo = &topo;
   in.normals = normals.data();
   in.bvh = bvh.data();
   in.object_box = object_box.data();
   in.tiny = kTinyRelative * grid.cell_size();
+  in.check_depth = 0.02 * grid.cell_size();
 
   out.assign(pairs.size(), Collision{});
   group_counts.assign(ngroups, DepthCounters{});
@@ -434,6 +437,8 @@ void CollisionDetector::Impl::depth(const World& w, std::vector<Collision>& out,
   for (const DepthCounters& c : group_counts) {
     st.border_points += c.border_points;
     st.deep_fallbacks += c.deep_fallbacks;
+    st.entry_records += c.entry_records;
+    st.redirected_depths += c.redirected;
     st.degenerate_skipped += c.degenerate;
     st.surface_searches += c.surface_searches;
   }
@@ -469,7 +474,7 @@ void CollisionDetector::Impl::detect(const World& w, const double* x_prev, std::
   group_pairs(st);
   st.detection_seconds = seconds_since(t0);
   const auto t1 = std::chrono::steady_clock::now();
-  depth(w, out, st);
+  depth(w, x_prev, out, st);
   st.depth_seconds = seconds_since(t1);
 }
 

@@ -54,9 +54,10 @@ struct RayPick {
   }
 };
 
-// T_i: the surface triangle crossed by the ray x~_i + s r_i, nearest to s = D_i.
+// T_i: the surface triangle crossed by the ray x~_i + s r_i, nearest to s = D_i; `at`
+// receives the distance s of that crossing (0 when none was found).
 index_t ray_triangle(const DepthInput& in, std::int32_t b, index_t tet, const V3& xi, const V3& r, double D,
-                     DepthCounters& c, DepthScratch& s) {
+                     double& at, DepthCounters& c, DepthScratch& s) {
   const World& w = *in.world;
   const SurfaceBvh& bvh = in.bvh[b];
   const Box& box = in.object_box[b];
@@ -82,10 +83,27 @@ index_t ray_triangle(const DepthInput& in, std::int32_t b, index_t tet, const V3
     bvh.segment_hits(in.x, w.triangles.data(), xi, xi + reach * r, s.hits, c.degenerate);
     for (const SurfaceBvh::Hit& h : s.hits) pick.offer(h.t * reach, h.triangle, D);
   }
-  if (pick.triangle >= 0) return pick.triangle;
-  // No crossing found at all (a tangled B): the triangle nearest to x~_i + d_i.
-  ++c.surface_searches;
-  return bvh.nearest(in.x, w.triangles.data(), xi + D * r, c.degenerate).triangle;
+  at = pick.triangle >= 0 ? pick.s : 0;
+  return pick.triangle;  // -1: no crossing at all (a tangled B)
+}
+
+// The entry rule (item 5 above): where the segment x~_i -> x^t_i crosses B's surface
+// first, when it crosses an odd number of times. False when it does not apply.
+bool entry_point(const DepthInput& in, std::int32_t b, index_t i, const V3& xi, DepthCounters& c, DepthScratch& s,
+                 index_t& triangle, V3& d, std::array<double, 3>& weight) {
+  if (!in.x_prev) return false;
+  const V3 xp = load(in.x_prev, i);
+  if (norm2(xp - xi) <= in.tiny * in.tiny) return false;
+  s.hits.clear();
+  in.bvh[b].segment_hits(in.x, in.world->triangles.data(), xi, xp, s.hits, c.degenerate);
+  if (s.hits.size() % 2 == 0) return false;
+  const SurfaceBvh::Hit* first = &s.hits[0];
+  for (const SurfaceBvh::Hit& h : s.hits)
+    if (h.t < first->t || (h.t == first->t && h.triangle < first->triangle)) first = &h;
+  triangle = first->triangle;
+  d = first->t * (xp - xi);
+  weight = first->bary;
+  return true;
 }
 
 }  // namespace
@@ -232,17 +250,48 @@ void penetration_depth(const DepthInput& in, std::int32_t b, const InsidePoint* 
     rec.other_object = topo.objects[static_cast<std::size_t>(b)].object;
     index_t t = -1;
     V3 d{0, 0, 0};
-    if (s.layer[k] == -2) {
+    bool projected = false;  // d_i along r_i; weights from projecting x~_i + d_i onto T_i
+    bool resolved = false;   // d_i and T_i chosen
+    if (s.layer[k] != -2) {
+      // The direction r_i and the crossing nearest to D_i are the consistent ones; the
+      // magnitude is the distance to that crossing, so that x~_i + d_i lies on T_i (D_i
+      // itself, an average over the border crossings, can overshoot it by a factor of
+      // two or fall short of it).
+      double at = 0;
+      const double D = std::max(s.depth[k], 0.0);
+      t = ray_triangle(in, b, pts[k].tet, xi, s.dir[k], D, at, c, s);
+      if (t >= 0) {
+        d = at * s.dir[k];
+        projected = resolved = true;
+        // A long d_i that is more than twice the way back to where the point entered B
+        // within this step has gone wrong: r_i, propagated from neighbours, leads
+        // through B (a thin part, a tangled region), and the point would be pushed
+        // through or, limited by the separation speed, deeper. The way back is taken.
+        index_t te = -1;
+        V3 de{0, 0, 0};
+        std::array<double, 3> we{};
+        if (at > in.check_depth && entry_point(in, b, i, xi, c, s, te, de, we) && 4 * norm2(de) < at * at) {
+          t = te;
+          d = de;
+          rec.weight = we;
+          projected = false;
+          ++c.redirected;
+          ++c.entry_records;
+        }
+      } else {
+        t = -1;
+      }
+    }
+    // Deep sets and rays without an exit: the entry rule, else the nearest triangle.
+    if (!resolved && entry_point(in, b, i, xi, c, s, t, d, rec.weight)) {
+      ++c.entry_records;
+    } else if (!resolved) {
       const SurfaceBvh::Nearest nr = bvh.nearest(x, tri, xi, c.degenerate);
       t = nr.triangle;
       d = nr.point - xi;
       rec.weight = nr.bary;
-      rec.fallback = true;
-    } else {
-      const double D = std::max(s.depth[k], 0.0);
-      d = D * s.dir[k];
-      t = ray_triangle(in, b, pts[k].tet, xi, s.dir[k], D, c, s);
     }
+    rec.fallback = !projected;
     if (t < 0) {
       // Only non-finite positions leave no triangle to choose (every comparison fails):
       // an empty record, which the detector drops; the run's failure guard reports why.
@@ -252,14 +301,13 @@ void penetration_depth(const DepthInput& in, std::int32_t b, const InsidePoint* 
       rec.triangle_gid = -1;
       continue;
     }
-    if (s.layer[k] != -2) {
+    if (projected) {
       const index_t* tv = tri + 3 * static_cast<std::size_t>(t);
       const V3 a = load(x, tv[0]), bb = load(x, tv[1]), cc = load(x, tv[2]);
       if (!projected_weights(xi + d, a, bb, cc, rec.weight)) {
         ++c.degenerate;
         closest_point_on_triangle(xi + d, a, bb, cc, rec.weight);
       }
-      rec.fallback = false;
     }
     rec.depth = d;
     for (int q = 0; q < 3; ++q) rec.triangle[q] = tri[3 * static_cast<std::size_t>(t) + q];

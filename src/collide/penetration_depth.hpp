@@ -17,12 +17,19 @@
 //     only (never from its own layer, so the order within a layer cannot matter):
 //         mu_j = 1 / |x~_j - x~_i|^2,
 //         D_i = sum_j mu_j ((x~_j - x~_i) . r_j + D_j) / sum_j mu_j,   r_i = normalize(sum_j mu_j r_j).
-//  4. d_i = max(D_i, 0) r_i (a point inside B is not inside by a negative amount; D_i < 0
-//     can only come from strongly curved or tangled geometry).
+//  4. d_i = D_i r_i with D_i at least the distance s1 to the first exit of the ray
+//     x~_i + s r_i from B: a point moved by d_i leaves B along r_i (the consistent depth
+//     alone can be smaller than that near a curved or sharp part of B, leaving the point
+//     inside, and it can be 0 or negative where crossings cancel).
 //  5. A connected set of inside points that no border point reaches (a deep
-//     intersection: the scheme has nothing to propagate) falls back, point by point, to
-//     the nearest surface triangle of B: d_i = (closest point) - x~_i, flagged and counted
-//     once per such set.
+//     intersection: the scheme has nothing to propagate), and a point whose ray finds no
+//     exit, are resolved towards the side the point came from: if the segment from x~_i
+//     back to x^t_i crosses B's surface an odd number of times (x^t_i was outside B), the
+//     crossing nearest to x~_i is the point where it entered, and d_i leads there
+//     (counted as entry records). Otherwise (x^t_i was inside B too, or no x^t is given)
+//     d_i leads to the nearest surface triangle of B: d_i = (closest point) - x~_i; deep
+//     sets are flagged and counted once per set. The nearest triangle can be the far side
+//     of a thin body, which is why the entry rule goes first.
 //  T_i is the surface triangle that the ray x~_i + s r_i crosses, the crossing nearest to
 //  x~_i + d_i if there are several: the ray is walked through B to its first exit s1; only
 //  if D_i > s1 can a later crossing (a re-entry into and exit from B, at s2 <= 2 D_i - s1)
@@ -52,17 +59,21 @@ struct InsidePoint {
 struct DepthInput {
   const World* world = nullptr;            ///< gids, objects, tets, triangles
   const double* x = nullptr;               ///< x~ (n,3) [m]
+  const double* x_prev = nullptr;          ///< x^t (n,3) [m], for the entry rule; may be null
   const CollisionTopology* topo = nullptr;
   const double* normals = nullptr;         ///< (n,3) smoothed vertex normals, valid on B's surface
   const SurfaceBvh* bvh = nullptr;         ///< per slot, refitted to x~ for B
   const Box* object_box = nullptr;         ///< per slot, at x~
   double tiny = 0;                         ///< [m]
+  double check_depth = 0;                  ///< [m] consistent depths longer than this are checked against the nearest surface point
   int max_walk = 1000;                     ///< tets per walk before searching the hierarchy
 };
 
 struct DepthCounters {
   std::int64_t border_points = 0;
   std::int64_t deep_fallbacks = 0;         ///< sets of points, not points
+  std::int64_t entry_records = 0;          ///< records resolved towards where the point entered
+  std::int64_t redirected = 0;             ///< consistent depths replaced (more than twice the nearest surface distance)
   std::int64_t degenerate = 0;
   std::int64_t surface_searches = 0;       ///< walks that failed and were replaced by a search of the hierarchy
 };

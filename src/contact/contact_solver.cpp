@@ -24,7 +24,8 @@ inline double norm3(const double* a) { return std::sqrt(a[0] * a[0] + a[1] * a[1
 bool key_less(gid_t ap, gid_t at, gid_t bp, gid_t bt) { return ap != bp ? ap < bp : at < bt; }
 }  // namespace
 
-ContactSolver::ContactSolver(const Scene& scene, const World& world) : friction_(scene.friction) {
+ContactSolver::ContactSolver(const Scene& scene, const World& world)
+    : friction_(scene.friction), separation_speed_(scene.sim.separation_speed) {
   object_material_.reserve(scene.objects.size());
   for (const SceneObject& o : scene.objects) object_material_.push_back(o.material);
   for (const ObjectLayout& L : world.layout) object_vertex_begin_.push_back(L.vertex_begin);
@@ -185,6 +186,53 @@ void ContactSolver::reply(int dim, Value&& value, Halo* halo) {
   }
 }
 
+// The depth each collision removes in this step, and how much of it is dynamic. The
+// part of d_i that the pair's approach within the step explains (the gap this step's
+// motion opened) is closed with the velocity that goes with it, as in the paper: the
+// relative normal velocity is stopped. The rest is an overlap that was there before
+// the step (bodies that start overlapping, a gap left by an earlier step); it is
+// removed by a position-only correction, which changes no velocity (so it adds no
+// kinetic energy), and at most separation_speed * dt of it per step.
+void ContactSolver::effective_depths(const std::vector<Collision>& col, double dt) {
+  const std::ptrdiff_t nc = static_cast<std::ptrdiff_t>(col.size());
+  const double slack = separation_speed_ * dt;
+  std::int64_t capped = 0;
+#pragma omp parallel for schedule(static) reduction(+ : capped)
+  for (std::ptrdiff_t q = 0; q < nc; ++q) {
+    const Collision& c = col[static_cast<std::size_t>(q)];
+    Local& L = local_[static_cast<std::size_t>(q)];
+    const double D = norm3(c.depth.data());
+    for (int d = 0; d < 3; ++d) L.d[d] = c.depth[static_cast<std::size_t>(d)];
+    L.dynamic = 1;
+    if (D == 0) continue;
+    // Approach of i towards the point of T_i it touches within the step, along -n.
+    double approach = 0;
+    for (int d = 0; d < 3; ++d) {
+      double u = slots_[static_cast<std::size_t>(L.slot[0])].dx[d];
+      for (int k = 0; k < 3; ++k) u -= c.weight[static_cast<std::size_t>(k)] * slots_[static_cast<std::size_t>(L.slot[1 + k])].dx[d];
+      approach -= u * c.depth[static_cast<std::size_t>(d)] / D;
+    }
+    approach = std::max(approach, 0.0);
+    if (D <= approach) continue;
+    double applied = D;
+    if (D > approach + slack) {
+      applied = approach + slack;
+      for (int d = 0; d < 3; ++d) L.d[d] *= applied / D;
+      ++capped;
+    }
+    L.dynamic = approach / applied;
+  }
+  capped_ = capped;
+}
+
+// The normal force pair of each collision (contact.hpp gives the rule): f = lambda_q d_i
+// on i, -omega_j lambda_q d_i on j in T_i, with lambda_q = 1 / (dt^2 K_q) and the shared
+// generalised inverse mass K_q = sum_v beta_v sigma_qv / m_v (beta = 1 for i, omega_j
+// for j; kinematic vertices add nothing). sigma_qv is vertex v's share: the part of the
+// summed pushes on v (slot.share, sum over its collisions of beta p, p the direction the
+// collision pushes v in) that lies along this collision's push, never less than its own
+// beta. An isolated collision has sigma = beta and closes exactly; k collisions pushing a
+// vertex the same way split it k ways, so no motion is applied twice.
 std::int64_t ContactSolver::normal_coefficients(const std::vector<Collision>& col, double dt) {
   const std::ptrdiff_t nc = static_cast<std::ptrdiff_t>(col.size());
   const double inv_dt2 = 1.0 / (dt * dt);
@@ -192,48 +240,28 @@ std::int64_t ContactSolver::normal_coefficients(const std::vector<Collision>& co
   // Local forces per collision: each iteration writes only its own record.
 #pragma omp parallel for schedule(static) reduction(+ : fixed_pairs)
   for (std::ptrdiff_t q = 0; q < nc; ++q) {
-    const Collision& c = col[q];
-    Local& L = local_[q];
-    const Slot& si = slots_[L.slot[0]];
-    const bool i_fixed = si.inv_mass == 0;
-    const double ci = 1.0 / (1.0 + si.column_sum);  // (6)
-    double cj[3], kin_weight = 0, MT = 0;
-    bool any_kin = false;
-    for (int k = 0; k < 3; ++k) {
-      const Slot& sj = slots_[L.slot[1 + k]];
-      cj[k] = 1.0 / (1.0 + sj.column_sum);
-      if (c.weight[k] <= 0) continue;
-      if (sj.inv_mass == 0) {
-        any_kin = true;
-        kin_weight += cj[k] * c.weight[k];
-      } else {
-        MT += cj[k] * c.weight[k] * sj.mass;
-      }
-    }
+    const Collision& c = col[static_cast<std::size_t>(q)];
+    Local& L = local_[static_cast<std::size_t>(q)];
     L.ai = L.aT[0] = L.aT[1] = L.aT[2] = 0;
-    if (i_fixed && any_kin) {  // two fixed sides: nothing can move
+    const double D = norm3(c.depth.data());
+    if (D == 0) continue;
+    const double n[3] = {c.depth[0] / D, c.depth[1] / D, c.depth[2] / D};
+    double K = 0;
+    const Slot& si = slots_[static_cast<std::size_t>(L.slot[0])];
+    if (si.inv_mass > 0) K += std::max(1.0, (n[0] * si.share[0] + n[1] * si.share[1] + n[2] * si.share[2]) / D) * si.inv_mass;
+    for (int k = 0; k < 3; ++k) {
+      const double wk = c.weight[static_cast<std::size_t>(k)];
+      const Slot& sj = slots_[static_cast<std::size_t>(L.slot[1 + k])];
+      if (wk <= 0 || sj.inv_mass == 0) continue;
+      K += wk * std::max(wk, -(n[0] * sj.share[0] + n[1] * sj.share[1] + n[2] * sj.share[2]) / D) * sj.inv_mass;
+    }
+    if (!(K > 0)) {  // both sides kinematic: nothing can move
       ++fixed_pairs;
       continue;
     }
-    if (any_kin) {
-      // alpha = 1 (infinite M_T): i moves the whole way; the kinematic vertices of T_i
-      // take the reaction in proportion to c_j omega_ij.
-      L.ai = ci * si.mass * inv_dt2;
-      for (int k = 0; k < 3; ++k)
-        if (c.weight[k] > 0 && slots_[L.slot[1 + k]].inv_mass == 0) L.aT[k] = -cj[k] * c.weight[k] / kin_weight * L.ai;
-    } else if (i_fixed) {
-      // alpha = 0 (infinite m_i): the triangle moves the whole way; i takes the reaction.
-      for (int k = 0; k < 3; ++k) {
-        L.aT[k] = -cj[k] * c.weight[k] * slots_[L.slot[1 + k]].mass * inv_dt2;
-        L.ai -= L.aT[k];
-      }
-    } else {
-      const double cm = ci * si.mass;
-      const double alpha = MT / (cm + MT);  // (5)
-      L.ai = cm * alpha * inv_dt2;          // (15)
-      for (int k = 0; k < 3; ++k)
-        L.aT[k] = -cj[k] * c.weight[k] * slots_[L.slot[1 + k]].mass * (1 - alpha) * inv_dt2;  // (16)
-    }
+    const double lambda = inv_dt2 / K;
+    L.ai = lambda;
+    for (int k = 0; k < 3; ++k) L.aT[k] = -c.weight[static_cast<std::size_t>(k)] * lambda;
   }
   return fixed_pairs;
 }
@@ -269,14 +297,15 @@ void ContactSolver::friction_coefficients(const std::vector<Collision>& col, Con
     L.scale = 0;
     L.e[0] = L.e[1] = L.e[2] = 0;
     L.keep_anchor = false;
-    const double dn = norm3(c.depth.data());
+    const double dd = norm3(L.d);
+    const double dn = dd * L.dynamic;  // the normal force's depth: Coulomb's cone is set by the force, not the shift
     if (dn == 0 || L.ai == 0) continue;
     const Friction& mu = friction_[object_material_[c.object]][object_material_[c.other_object]];
     if (mu.mu_static == 0 && mu.mu_kinetic == 0) continue;
-    const double n[3] = {c.depth[0] / dn, c.depth[1] / dn, c.depth[2] / dn};
+    const double n[3] = {L.d[0] / dd, L.d[1] / dd, L.d[2] / dd};
     double u[3];
     if (L.anchor_slot[0] >= 0) {
-      const StictionAnchor& an = anchor_[static_cast<std::size_t>(c.point)];
+      const AnchorEntry& an = *anchor_[static_cast<std::size_t>(c.point)].find(c.other_object);
       for (int d = 0; d < 3; ++d) {
         u[d] = corrected(L.slot[0], c.point, d);
         for (int k = 0; k < 3; ++k)
@@ -334,23 +363,32 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
   for (std::size_t q = 0; q < col.size(); ++q) {
     const Collision& c = col[q];
     Local& L = local_[q];
-    const StictionAnchor& an = anchor_[static_cast<std::size_t>(c.point)];
-    const bool anchored = an.object == c.other_object && an.step >= step_ - kAnchorGrace;
-    for (int k = 0; k < 3; ++k) L.anchor_slot[k] = anchored ? slot_of_vertex(w, w.local_vertex(an.object, an.tri[k])) : -1;
+    const AnchorEntry* an = anchor_[static_cast<std::size_t>(c.point)].find(c.other_object);
+    const bool anchored = an && an->step >= step_ - kAnchorGrace;
+    for (int k = 0; k < 3; ++k) L.anchor_slot[k] = anchored ? slot_of_vertex(w, w.local_vertex(an->object, an->tri[k])) : -1;
   }
   plan_ghosts(w, halo);  // collective over the neighbours, also without collisions
   // Without neighbours and collisions there is nothing to do; with neighbours every
   // exchange below must take place (they may need our vertices' sums).
   if (request_.empty() && col.empty()) return;
 
-  // Column sums s_j of H, then the coefficients of the local force pairs.
+  // The summed pushes on each vertex (the shares; the paper's column sums s_j of H with
+  // a direction), then the coefficients of the local force pairs.
   reduce(
-      col, 1,
+      col, 3,
       [&](std::size_t q, auto&& f) {
-        for (int k = 0; k < 3; ++k) f(local_[q].slot[1 + k], &col[q].weight[static_cast<std::size_t>(k)]);
+        const double* p = col[q].depth.data();
+        f(local_[q].slot[0], p);
+        for (int k = 0; k < 3; ++k) {
+          const double wk = col[q].weight[static_cast<std::size_t>(k)];
+          const double pj[3] = {-wk * p[0], -wk * p[1], -wk * p[2]};
+          f(local_[q].slot[1 + k], pj);
+        }
       },
-      [](Slot& s) { return &s.column_sum; }, halo);
-  reply(1, [](Slot& s) { return &s.column_sum; }, halo);
+      [](Slot& s) { return s.share; }, halo);
+  reply(3, [](Slot& s) { return s.share; }, halo);
+  effective_depths(col, dt);
+  stats.separating = capped_;
   stats.fixed_pairs = normal_coefficients(col, dt);
 
   // Normal forces f_i = a_i d_i, f_Ti,j = a_j d_i per vertex; the normal correction
@@ -360,7 +398,7 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
       col, 3,
       [&](std::size_t q, auto&& f) {
         const Local& L = local_[q];
-        const double* d = col[q].depth.data();
+        const double* d = L.d;
         const double fi[3] = {L.ai * d[0], L.ai * d[1], L.ai * d[2]};
         f(L.slot[0], fi);
         for (int k = 0; k < 3; ++k) {
@@ -369,6 +407,22 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
         }
       },
       [](Slot& s) { return s.normal; }, halo);
+  // The dynamic part of the same forces (effective_depths): what changes velocities.
+  reduce(
+      col, 3,
+      [&](std::size_t q, auto&& f) {
+        const Local& L = local_[q];
+        const double* d = L.d;
+        const double a = L.ai * L.dynamic;
+        const double fi[3] = {a * d[0], a * d[1], a * d[2]};
+        f(L.slot[0], fi);
+        for (int k = 0; k < 3; ++k) {
+          const double b = L.aT[k] * L.dynamic;
+          const double fj[3] = {b * d[0], b * d[1], b * d[2]};
+          f(L.slot[1 + k], fj);
+        }
+      },
+      [](Slot& s) { return s.normal_dynamic; }, halo);
   const double dt2 = dt * dt;
   for (Slot& s : slots_)
     if (s.nb < 0)
@@ -399,16 +453,20 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
     const Slot& s = slots_[k];
     if (s.nb >= 0) continue;  // a ghost: its owner applies the sums
     const auto v = static_cast<std::size_t>(vertex_of_[k]);
+    // The contact force is the dynamic part (the momentum it transfers, F dt); the
+    // position-only part moves x (and x^t with it) but is no force.
     double f[3];
     for (int d = 0; d < 3; ++d) {
-      f[d] = s.normal[d] + s.friction[d];
+      f[d] = s.normal_dynamic[d] + s.friction[d];
       sum[d] += f[d];
     }
     abs_sum += norm3(f);
     if (s.inv_mass == 0) continue;
     for (int d = 0; d < 3; ++d) {
-      w.x[3 * v + d] += dt2 * s.inv_mass * f[d];  // (12): x = x~ + dt^2 F / m
+      const double shift = dt2 * s.inv_mass * (s.normal[d] - s.normal_dynamic[d]);
+      w.x[3 * v + d] += dt2 * s.inv_mass * f[d] + shift;  // (12): x = x~ + dt^2 F / m, and the shift
       w.v[3 * v + d] += dt * s.inv_mass * f[d];
+      w.x_prev[3 * v + d] += shift;  // so that position Verlet sees no velocity from the shift
     }
   }
   for (const Collision& c : col) stats.max_depth = std::max(stats.max_depth, norm3(c.depth.data()));
@@ -420,14 +478,14 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
 
 // After the step: points that stuck to a valid anchor keep it; every other colliding
 // point takes a new anchor, the foot of its final position on the final plane of T_i
-// (barycentric coordinates, not clamped: the foot may lie just outside T_i). In
-// collision order, so a point with records against two bodies ends with the later one.
+// (barycentric coordinates, not clamped: the foot may lie just outside T_i). One anchor
+// per (point, other body), so a point against two bodies keeps both.
 // The triangle's final positions: with ghosts, after the halo has refreshed them.
 void ContactSolver::update_anchors(const World& w, const std::vector<Collision>& col) {
   if (local_.size() < col.size()) return;  // respond() has not seen these collisions
   for (std::size_t q = 0; q < col.size(); ++q) {
     const Collision& c = col[q];
-    StictionAnchor& an = anchor_[static_cast<std::size_t>(c.point)];
+    AnchorEntry& an = anchor_[static_cast<std::size_t>(c.point)].slot_for(c.other_object);
     if (local_[q].keep_anchor) {
       an.step = step_;
       continue;
@@ -465,7 +523,7 @@ void ContactSolver::materialize() {
     if (slots_[k].nb >= 0) continue;  // ghost: partial sums only
     const index_t v = vertex_of_[k];
     for (int d = 0; d < 3; ++d) {
-      force_[3 * v + d] = slots_[k].normal[d] + slots_[k].friction[d];
+      force_[3 * v + d] = slots_[k].normal_dynamic[d] + slots_[k].friction[d];
       penetration_[3 * v + d] = slots_[k].depth[d];
     }
   }

@@ -15,7 +15,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr std::int64_t kFormat = 1;
+constexpr std::int64_t kFormat = 2;  // 2: two friction anchors per vertex (one per other body)
 constexpr const char* kDir = "checkpoints";
 constexpr const char* kPrefix = "checkpoint_";
 
@@ -168,19 +168,20 @@ void write_checkpoint(MPI_Comm comm, const std::string& path, Simulator& sim, Ch
   h5::write_rows(state, "v", nv, 3, runs, w.v.data());
   const std::vector<StictionAnchor>& anchors = sim.anchors();
   Rows r;
-  for (std::size_t i = 0; i < w.n_owned; ++i) {
-    const StictionAnchor& a = anchors[i];
-    r.anchor_step.push_back(a.step);
-    r.anchor_object.push_back(a.object);
-    for (int c = 0; c < 3; ++c) {
-      r.anchor_tri.push_back(a.tri[c]);
-      r.anchor_bary.push_back(a.bary[c]);
+  constexpr int na = StictionAnchor::kPerPoint;
+  for (std::size_t i = 0; i < w.n_owned; ++i)
+    for (const AnchorEntry& a : anchors[i].entry) {
+      r.anchor_step.push_back(a.step);
+      r.anchor_object.push_back(a.object);
+      for (int c = 0; c < 3; ++c) {
+        r.anchor_tri.push_back(a.tri[c]);
+        r.anchor_bary.push_back(a.bary[c]);
+      }
     }
-  }
-  h5::write_rows(state, "anchor_step", nv, 1, runs, r.anchor_step.data());
-  h5::write_rows(state, "anchor_object", nv, 1, runs, r.anchor_object.data());
-  h5::write_rows(state, "anchor_triangle", nv, 3, runs, r.anchor_tri.data());
-  h5::write_rows(state, "anchor_bary", nv, 3, runs, r.anchor_bary.data());
+  h5::write_rows(state, "anchor_step", nv, na, runs, r.anchor_step.data());
+  h5::write_rows(state, "anchor_object", nv, na, runs, r.anchor_object.data());
+  h5::write_rows(state, "anchor_triangle", nv, 3 * na, runs, r.anchor_tri.data());
+  h5::write_rows(state, "anchor_bary", nv, 3 * na, runs, r.anchor_bary.data());
   H5Gclose(state);
 
   // The run description: written by rank 0 (every rank holds the same), independent I/O.
@@ -378,34 +379,35 @@ void read_checkpoint_state(MPI_Comm comm, const std::string& path, const Checkpo
   const gid_t nv = w.global_vertices;
   const std::size_t n = w.n_owned;
   Rows r;
-  r.anchor_step.resize(n);
-  r.anchor_object.resize(n);
-  r.anchor_tri.resize(3 * n);
-  r.anchor_bary.resize(3 * n);
+  constexpr std::size_t na = StictionAnchor::kPerPoint;
+  r.anchor_step.resize(na * n);
+  r.anchor_object.resize(na * n);
+  r.anchor_tri.resize(3 * na * n);
+  r.anchor_bary.resize(3 * na * n);
   try {
     h5::read_rows(file, "/state/x", nv, 3, runs, w.x.data(), path);
     h5::read_rows(file, "/state/x_prev", nv, 3, runs, w.x_prev.data(), path);
     h5::read_rows(file, "/state/v", nv, 3, runs, w.v.data(), path);
-    h5::read_rows(file, "/state/anchor_step", nv, 1, runs, r.anchor_step.data(), path);
-    h5::read_rows(file, "/state/anchor_object", nv, 1, runs, r.anchor_object.data(), path);
-    h5::read_rows(file, "/state/anchor_triangle", nv, 3, runs, r.anchor_tri.data(), path);
-    h5::read_rows(file, "/state/anchor_bary", nv, 3, runs, r.anchor_bary.data(), path);
+    h5::read_rows(file, "/state/anchor_step", nv, na, runs, r.anchor_step.data(), path);
+    h5::read_rows(file, "/state/anchor_object", nv, na, runs, r.anchor_object.data(), path);
+    h5::read_rows(file, "/state/anchor_triangle", nv, 3 * na, runs, r.anchor_tri.data(), path);
+    h5::read_rows(file, "/state/anchor_bary", nv, 3 * na, runs, r.anchor_bary.data(), path);
   } catch (...) {
     H5Fclose(file);
     throw;
   }
   H5Fclose(file);
   const auto nobj = static_cast<std::int32_t>(w.layout.size());
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = 0; i < na * n; ++i) {
     bool ok = r.anchor_object[i] >= -1 && r.anchor_object[i] < nobj;
     for (std::size_t c = 0; c < 3; ++c) ok = ok && r.anchor_tri[3 * i + c] >= -1 && r.anchor_tri[3 * i + c] < nv;
     if (!ok)
-      throw RuntimeFailure(path + ": the friction anchor of vertex " + std::to_string(w.vertex_gid[i]) +
+      throw RuntimeFailure(path + ": the friction anchor of vertex " + std::to_string(w.vertex_gid[i / na]) +
                            " names an object or vertex that does not exist");
   }
   std::vector<StictionAnchor>& anchors = sim.anchors();
-  for (std::size_t i = 0; i < n; ++i) {
-    StictionAnchor& a = anchors[i];
+  for (std::size_t i = 0; i < na * n; ++i) {
+    AnchorEntry& a = anchors[i / na].entry[i % na];
     a.step = r.anchor_step[i];
     a.object = r.anchor_object[i];
     for (std::size_t c = 0; c < 3; ++c) {

@@ -74,7 +74,7 @@ TEST(ContactPhysics, BoxDroppedOnFloorRestsWithContactForceEqualToWeight) {
 // box takes the larger share of the separation: m_a dx_a = -m_b dx_b.
 TEST(ContactPhysics, MassRatiosConserveMomentumAndLighterBodyMovesMore) {
   for (double ratio : {1.0, 10.0, 1000.0}) {
-    const std::string yaml = "simulation: {dt: 1.0e-4, steps: 1, gravity: [0, 0, 0]}\nmaterials:\n"
+    const std::string yaml = "simulation: {dt: 1.0e-4, steps: 1, gravity: [0, 0, 0], separation_speed: 1000}\nmaterials:\n"
                              "  - {name: a, young: 1.0e5, poisson: 0.3, density: 100}\n"
                              "  - {name: b, young: 1.0e5, poisson: 0.3, density: " +
                              std::to_string(100 * ratio) + "}\n" + R"(
@@ -105,15 +105,18 @@ objects:
   }
 }
 
-// Two equal boxes overlapping by h along x with no gravity: alpha = 1/2, so the two
-// contact faces move back by the same amount and meet in the middle plane x = 0. The
+// Two equal boxes overlapping by h along x with no gravity: every face vertex is pushed
+// the same way as a point and as a triangle vertex and takes half of each, so the two
+// contact faces move back by the same amount and meet in the middle plane x = 0 (the
+// overlap is resolved in one step here: separation_speed is set high, since by default
+// an overlap present from the start is pushed apart at 1 m/s, OldOverlapSeparates...). The
 // faces' inner vertices (away from the rim, where smoothed normals tilt the penetration
 // vectors) are measured: symmetric about x = 0 within 1% of h, each moved h/2 within
 // 10% (the consistent depth of a coarse mesh overestimates by a few percent).
 TEST(ContactPhysics, EqualBodiesMeetInTheMiddlePlane) {
   const double h = 0.004;
   auto r = make_run(R"(
-simulation: {dt: 1.0e-4, steps: 1, gravity: [0, 0, 0]}
+simulation: {dt: 1.0e-4, steps: 1, gravity: [0, 0, 0], separation_speed: 1000}
 materials:
   - {name: a, young: 1.0e6, poisson: 0.3, density: 1000}
 objects:
