@@ -3,31 +3,34 @@
 // Algorithm 1 (method.md, "Contact forces" and "Friction"). No stiffness constant, no
 // iteration, no global system: O(1) work per collision.
 //
-// For every collision (i, T_i) with penetration vector d_i and weights omega_ij:
+// For every collision q = (i, T_i) with penetration vector d_i and weights omega_ij
+// (docs/contact.md, "Normal response", derives and tests this):
 //
-//   s_j     = sum over collisions with j in T of omega_j          (column sums of H)
-//   c_j     = 1 / (1 + s_j)                                        (6)
-//   M_T     = sum_{j in T_i} c_j omega_ij m_j
-//   alpha_i = M_T / (c_i m_i + M_T)                                (5)
-//   f_i     =  c_i m_i alpha_i d_i / dt^2                          (15)  on point i
-//   f_Ti,j  = -c_j omega_ij m_j (1 - alpha_i) d_i / dt^2           (16)  on j in T_i
+//   f_i     =  lambda_q d_i,   f_Ti,j = -omega_ij lambda_q d_i,   lambda_q = 1 / (dt^2 K_q)
+//   K_q     =  sum over v in {i, j, k, l} of beta_v sigma_qv / m_v       (beta_i = 1, beta_j = omega_ij)
+//   sigma_qv = max(beta_v, p_q . S_v / |d_i|)                           (the shares; the paper's c-weights)
 //
-// f_i + sum_j f_Ti,j = 0 by the choice of alpha_i, so summing the local forces per
-// vertex (eq. 22) conserves momentum to rounding and gives the reaction on triangle
-// vertices that do not collide themselves. Positions are then corrected,
-// x = x~ + dt^2 F / m, and velocities take the same correction, v += dt F / m.
+// S_v sums the pushes on v over its collisions (+d for the point, -omega d for a triangle
+// vertex), p_q is this collision's push direction. An isolated collision (sigma = beta)
+// closes exactly; collisions that push a shared vertex the same way split it. The pair
+// sums to zero, so summing the local forces per vertex (eq. 22) conserves momentum.
+// Positions are corrected, x = x~ + dt^2 F / m. The part of d_i that the pair's approach
+// within the step explains changes the velocity too (v += dt F / m: the relative normal
+// velocity is stopped); the rest, an overlap older than the step, is a position-only
+// shift (x and x^t move together, v does not change), at most separation_speed * dt per
+// step. The reported contact force is the dynamic part.
 //
-// Kinematic vertices (inverse mass 0) have infinite mass: if a vertex of T_i with
-// omega > 0 is kinematic, alpha_i = 1 and the reaction -f_i goes to the kinematic
-// vertices of T_i in proportion to c_j omega_ij; if i is kinematic, alpha_i = 0 and i
-// takes the reaction. Forces on kinematic vertices are recorded, never applied.
+// Kinematic vertices (inverse mass 0) add nothing to K_q; forces on them are recorded
+// (the reactions on anchors and walls), never applied. Both sides kinematic: no force.
 //
 // Friction (Coulomb, decoupled from the normal response as in the paper's Sec. 3.4) is
 // applied after the normal correction with the same local force pairs: the relative
-// tangential motion e_i of i against T_i within the step replaces d_i in (15)-(16), so
-// stiction removes it exactly where the normal response removes penetration exactly,
-// and friction sums to zero too. Coulomb's cone becomes |e_i| <= mu_s |d_i| (stick),
-// else e_i is scaled to mu_k |d_i| (slide); contact_solver.cpp derives this.
+// tangential motion e_i of i against T_i within the step replaces d_i, so stiction
+// removes it exactly where the normal response removes penetration exactly, and
+// friction sums to zero too. Coulomb's cone becomes |e_i| <= mu_s |d_i| (stick), else e_i
+// is scaled to mu_k |d_i| (slide), |d_i| the dynamic part; a patch (one body's points
+// against one other body) whose summed stopping forces fit in its summed cones sticks as
+// a whole. contact_solver.cpp derives this.
 //
 // Static friction is anchored: a sticking point keeps the place on the other body where
 // it first stuck (barycentric coordinates in a surface triangle of that body), and e_i
@@ -35,7 +38,7 @@
 // the decoupled per-collision forces leave behind (and steps in which a resting point is
 // not detected) are thereby pulled back instead of adding up to creep. A point that
 // slides, or that has had no contact with that body for more than kAnchorGrace steps,
-// takes a new anchor where it ends the step.
+// takes a new anchor where it ends the step. Anchors are per (point, other body).
 #include <cstdint>
 #include <vector>
 
@@ -154,7 +157,10 @@ private:
     double dynamic;          // the part of d closed with velocity (the step's approach), in [0, 1]
     double scale;            // friction: multiple of the tangential vector applied
     double e[3];             // friction: tangential vector
+    double tangential;       // friction: |stopping force| of this collision
+    double cone;             // friction: mu_s times its normal force
     bool keep_anchor;        // friction: stuck to a valid anchor, which stays
+    bool keep_patch;         // friction: its patch (object, other object) has been decided
   };
   // A contribution to an owned vertex's sum from another rank, with its collision's key.
   struct Record {
