@@ -185,7 +185,7 @@ private:
 
   std::vector<std::int32_t> object_material_;             // material of each object
   std::vector<std::vector<Friction>> friction_;           // [material][material]
-  double separation_speed_ = 1.0;                          // [m/s] bound for resolving old overlaps
+  double separation_speed_ = 5.0;                          // [m/s] bound for resolving old overlaps
   std::int64_t capped_ = 0;                                // collisions limited by it, last respond()
   std::vector<std::int32_t> slot_of_;                      // n_local, -1 when not taking part
   std::vector<index_t> vertex_of_;                         // per slot

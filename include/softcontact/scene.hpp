@@ -86,10 +86,10 @@ struct Simulation {
   double output_interval = 0;       ///< simulated seconds between frames
   std::string output_dir;           ///< relative to the working directory
   bool self_collisions = false;
-  // Overlaps that the step's own motion cannot explain (bodies that start overlapping)
-  // are resolved at most this much faster than the bodies approach [m/s]
-  // (docs/contact.md, "Overlaps").
-  double separation_speed = 1.0;
+  // Overlaps that the step's own motion cannot explain (bodies that start overlapping,
+  // a gap an earlier step left) are removed by a position-only shift of at most this
+  // speed times dt per step [m/s] (docs/contact.md, "Fresh contact and old overlap").
+  double separation_speed = 5.0;
   // Checkpoints (docs/reliability.md): every N steps and/or every T wall minutes; the
   // last `checkpoint_keep` are kept. 0 disables a trigger.
   std::int64_t checkpoint_every = 0;

@@ -236,7 +236,7 @@ TEST(ContactSolver, PointInTwoCollisionsMovesEachDepthOnce) {
 
 // An overlap that the step's motion does not explain (x~ = x^t, 5 mm deep: bodies that
 // start overlapping) is pushed apart by a position-only correction of at most the
-// separation speed times dt per step, 1 m/s by default: x moves 1 mm, x^t with it, and no
+// separation speed times dt per step (set to 1 m/s here; 5 m/s by default): x moves 1 mm, x^t with it, and no
 // velocity is added (not 5 m/s in one step). A fresh contact of the same depth, reached
 // within the step, is closed in full and its approach velocity is stopped.
 TEST(ContactSolver, OldOverlapSeparatesAtTheSeparationSpeedWithoutVelocity) {

@@ -46,14 +46,15 @@ const std::map<std::string, std::pair<int, std::string>> kFallsFirst = {
 constexpr int kSteps = 60;
 
 /// Residual penetration after the contact response, over the median edge length
-/// (Simulator::measure: a second detection at the corrected positions). The response
-/// removes each penetration in one step; what remains comes from assumption (3) of the
-/// paper on coarse meshes (neighbouring collisions sharing a triangle) and from new
-/// contacts between corrected points. ContactPhysics measures at most 0.35 % for one box
-/// on a floor; piles with many contacts per triangle leave more (the full chess500 run:
-/// up to 0.30 in one frame of the landing, 0.03 to 0.04 at rest). In these short runs the
-/// worst measured is 1.3e-3 (bars_squeezed); the tolerance is 10 % of the median edge.
-constexpr double kResidualTolerance = 0.10;
+/// (Simulator::measure). The response
+/// closes each contact it finds in the step (docs/contact.md); the residual is
+/// softcontact verify's deepest surface vertex inside another body, measured
+/// independently of the detector. In these short runs (the first contacts only) the worst
+/// measured is 3.3e-4 (bars_squeezed); the tolerance is the goal of the issue "Contact
+/// resolved in every step", 0.5 % of the median edge. Whole runs and piles are checked by
+/// the 'scenes' label (tests/app/scene_verify_test.sh), which most piles do not pass at
+/// this goal yet (docs/validation.md, "Contact response in piles").
+constexpr double kResidualTolerance = 0.005;
 
 /// |sum F| / sum |F| over all contact forces, the reactions recorded on kinematic
 /// vertices included (contact.md: forces on kinematic vertices are recorded, never
