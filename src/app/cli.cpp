@@ -219,7 +219,10 @@ std::int64_t parse_nonnegative(const std::string& opt, const std::string& v, con
   return n;
 }
 
-double parse_seconds(const std::string& opt, const std::string& v, const char* command) {
+// A number option: the whole value must parse and satisfy `ok`, else a usage error
+// "OPT expects EXPECTED, got 'V'".
+double parse_number(const std::string& opt, const std::string& v, const char* command, bool (*ok)(double),
+                    const char* expected) {
   std::size_t pos = 0;
   double x = 0;
   try {
@@ -227,9 +230,13 @@ double parse_seconds(const std::string& opt, const std::string& v, const char* c
   } catch (const std::exception&) {
     pos = 0;
   }
-  if (pos != v.size() || v.empty() || !(x > 0) || !std::isfinite(x))
-    usage_error(opt + " expects a positive number of seconds, got '" + v + "'", command);
+  if (pos != v.size() || v.empty() || !ok(x)) usage_error(opt + " expects " + expected + ", got '" + v + "'", command);
   return x;
+}
+
+double parse_seconds(const std::string& opt, const std::string& v, const char* command) {
+  return parse_number(opt, v, command, [](double x) { return x > 0 && std::isfinite(x); },
+                      "a positive number of seconds");
 }
 
 std::string scene_argument(const Args& a, const char* command) {
@@ -388,16 +395,7 @@ int cmd_bench(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err
 }
 
 double parse_limit(const std::string& opt, const std::string& v) {
-  std::size_t pos = 0;
-  double x = 0;
-  try {
-    x = std::stod(v, &pos);
-  } catch (const std::exception&) {
-    pos = 0;
-  }
-  if (pos != v.size() || v.empty() || !(x >= 0) || std::isnan(x))
-    usage_error(opt + " expects a non-negative number, got '" + v + "'", "verify");
-  return x;
+  return parse_number(opt, v, "verify", [](double x) { return x >= 0; }, "a non-negative number");
 }
 
 // Runs on rank 0 alone; the exit status (or the input error) goes to every rank.

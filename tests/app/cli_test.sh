@@ -1,22 +1,10 @@
 #!/usr/bin/env bash
 # Command-line tests: exit codes, messages, outputs. Usage: cli_test.sh EXE MPIEXEC DATA WORK
 set -u
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 exe=$1 mpiexec=$2 data=$3 work=$4
 rm -rf "$work" && mkdir -p "$work" && cd "$work" || exit 1
-fails=0 passes=0
-ok() { passes=$((passes + 1)); }
-bad() { echo "FAIL: $*"; fails=$((fails + 1)); }
-
-# expect CODE PATTERN -- command...: exit status CODE and PATTERN (grep -E) in stdout+stderr
-expect() {
-  local code=$1 pattern=$2; shift 3
-  local out rc
-  out=$("$@" 2>&1); rc=$?
-  if [ "$rc" != "$code" ]; then bad "'$*' exited $rc, expected $code; output:"; echo "$out" | head -20; return; fi
-  if ! grep -qE -- "$pattern" <<<"$out"; then bad "'$*' output lacks /$pattern/:"; echo "$out" | head -20; return; fi
-  if grep -qE 'terminate called|Segmentation|Aborted|core dumped|stack trace' <<<"$out"; then bad "'$*' crashed: $out"; return; fi
-  ok
-}
+source "$here/expect.sh"   # ok, bad, expect
 
 expect 0 'run SCENE.yaml' -- "$exe" --help
 expect 0 '--output-every K' -- "$exe" run --help

@@ -2,22 +2,10 @@
 # softcontact verify and run --verify-every: exit codes, messages, the JSON files.
 # Usage: verify_test.sh EXE MPIEXEC DATA WORK
 set -u
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 exe=$1 mpiexec=$2 data=$3 work=$4
 rm -rf "$work" && mkdir -p "$work" && cd "$work" || exit 1
-fails=0 passes=0
-ok() { passes=$((passes + 1)); }
-bad() { echo "FAIL: $*"; fails=$((fails + 1)); }
-
-# expect CODE PATTERN -- command...: exit status CODE and PATTERN (grep -E) in stdout+stderr
-expect() {
-  local code=$1 pattern=$2; shift 3
-  local out rc
-  out=$("$@" 2>&1); rc=$?
-  if [ "$rc" != "$code" ]; then bad "'$*' exited $rc, expected $code; output:"; echo "$out" | head -20; return; fi
-  if ! grep -qE -- "$pattern" <<<"$out"; then bad "'$*' output lacks /$pattern/:"; echo "$out" | head -20; return; fi
-  if grep -qE 'terminate called|Segmentation|Aborted|core dumped|stack trace|HDF5-DIAG' <<<"$out"; then bad "'$*' crashed or leaked HDF5 errors: $out"; return; fi
-  ok
-}
+source "$here/expect.sh"   # ok, bad, expect
 
 expect 0 'verify OUTPUT_DIR' -- "$exe" --help
 expect 0 '--max-depth F' -- "$exe" verify --help
