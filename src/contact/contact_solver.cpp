@@ -1,6 +1,7 @@
 // The analytic contact response (contact.hpp gives the equations). Work is O(1) per
-// collision: one pass for the column sums s_j, one (parallel) for alpha_i and the local
-// forces, one fold of the local forces per vertex, then friction likewise.
+// collision: one pass for the summed pushes S_v, one (parallel) for the approach and the
+// coefficients of the local forces, two folds of the local forces per vertex (all of
+// the normal correction and its dynamic part), then friction likewise.
 //
 // Every per-vertex sum is a fold over the vertex's contributions in the order of their
 // collisions' keys (point_gid, triangle_gid), which is the order of the sorted collision
@@ -271,8 +272,8 @@ void ContactSolver::friction_coefficients(const std::vector<Collision>& col, Con
   // computed with the same closed form. After the normal correction, the relative
   // tangential motion of i against the point of T_i it touches within this step is
   //   u_t dt,  u = (x_i - x_i^t - sum_j omega_ij (x_j - x_j^t)) / dt,  tangential to n = d/|d|.
-  // Undoing it is a second, tangential "penetration" e_i = -u_t dt, and the local force
-  // pair of eqs (15)-(16) with e_i in place of d_i (same alpha_i, same c_j) removes it
+  // Undoing it is a second, tangential "penetration" e_i = -u_t dt, and the local
+  // normal force pair with e_i in place of d_i (the same lambda_q) removes it
   // exactly where the normal response removes the penetration exactly: stiction
   // therefore leaves no creep. Because both pairs share their coefficients,
   // |f_t| / |f_n| = |e_i| / |d_i| per collision, which makes Coulomb's law a clamp:
