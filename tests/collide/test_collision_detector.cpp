@@ -10,6 +10,7 @@
 #include <random>
 
 #include "collide_test_util.hpp"
+#include "../random_objects.hpp"
 
 using namespace softcontact;
 using namespace softcontact::test;
@@ -129,17 +130,7 @@ namespace {
 // (which also inverts and flattens some tets).
 World random_scene(std::uint64_t seed, int n, double jitter) {
   std::mt19937_64 g(seed);
-  std::uniform_real_distribution<double> pos(-0.25, 0.25), ang(0, 360);
-  std::string yaml;
-  for (int k = 0; k < n; ++k) {
-    const char* prim[3] = {"{type: torus, major_radius: 0.15, minor_radius: 0.05, resolution: 3, around: 12}",
-                           "{type: sphere, radius: 0.12, resolution: 4}",
-                           "{type: box, size: [0.3, 0.15, 0.1], cells: [3, 2, 2]}"};
-    yaml += "  - material: m\n    primitive: " + std::string(prim[g() % 3]) + "\n    transform: {rotate: [" +
-            std::to_string(ang(g)) + ", " + std::to_string(ang(g)) + ", " + std::to_string(ang(g)) +
-            "], translate: [" + std::to_string(pos(g)) + ", " + std::to_string(pos(g)) + ", " + std::to_string(pos(g)) +
-            "]}\n";
-  }
+  const std::string yaml = test::random_objects_yaml(g, n);
   World w = world_from_objects(yaml);
   std::uniform_real_distribution<double> u(-jitter, jitter);
   for (double& c : w.x) c += u(g);

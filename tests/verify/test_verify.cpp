@@ -16,6 +16,7 @@
 #include "softcontact/surface.hpp"
 #include "softcontact/verify.hpp"
 #include "softcontact/world.hpp"
+#include "../random_objects.hpp"
 #include "verify/verify_geometry.hpp"
 
 namespace softcontact {
@@ -273,17 +274,7 @@ namespace {
 // small region, random orientations, every vertex jittered (some tets inverted).
 SceneBodies random_bodies(std::uint64_t seed, int n, double jitter) {
   std::mt19937_64 g(seed);
-  std::uniform_real_distribution<double> pos(-0.25, 0.25), ang(0, 360);
-  std::string yaml;
-  for (int k = 0; k < n; ++k) {
-    const char* prim[3] = {"{type: torus, major_radius: 0.15, minor_radius: 0.05, resolution: 3, around: 12}",
-                           "{type: sphere, radius: 0.12, resolution: 4}",
-                           "{type: box, size: [0.3, 0.15, 0.1], cells: [3, 2, 2]}"};
-    yaml += "  - material: m\n    primitive: " + std::string(prim[g() % 3]) + "\n    transform: {rotate: [" +
-            std::to_string(ang(g)) + ", " + std::to_string(ang(g)) + ", " + std::to_string(ang(g)) +
-            "], translate: [" + std::to_string(pos(g)) + ", " + std::to_string(pos(g)) + ", " + std::to_string(pos(g)) +
-            "]}\n";
-  }
+  const std::string yaml = test::random_objects_yaml(g, n);
   SceneBodies s(yaml);
   std::uniform_real_distribution<double> u(-jitter, jitter);
   for (double& c : s.x) c += u(g);
