@@ -278,8 +278,6 @@ void penetration_depth(const DepthInput& in, std::int32_t b, const InsidePoint* 
           ++c.redirected;
           ++c.entry_records;
         }
-      } else {
-        t = -1;
       }
     }
     // Deep sets and rays without an exit: the entry rule, else the nearest triangle.
