@@ -1,15 +1,30 @@
 #!/usr/bin/env bash
-# The test suite: set up (install, build), then ctest. Long validation runs (label
-# 'long'), pictures ('render') and the shipped scenes under softcontact verify ('scenes',
-# about 5 min) are left out; run them with: bash tools/test.sh -L long (or -L scenes).
-# The suite includes the sanitizer tests (label 'sanitize': a libFuzzer pass and the
-# tests under ASan+UBSan, about 12 min; docs/reliability.md).
-# Extra arguments go to ctest.
+# The test suite: set up (install, build), then ctest. Two entry points (README, "Tests"):
+#
+#   bash tools/test.sh              unit, MPI, CLI and short validation tests: what a user
+#                                   runs to know the build works (under 5 min on 2 cores)
+#   bash tools/test.sh --extended   the sanitizers (ASan+UBSan over the suite, libFuzzer
+#                                   over every reader), the shipped scenes checked by
+#                                   softcontact verify and the long validation runs
+#                                   (labels sanitize, scenes, long; about 25 min; CI runs
+#                                   both). Installs the sanitizer toolchain first.
+#
+# Pictures (label 'render') need ParaView: bash tools/test.sh -L render.
+# Other arguments go to ctest, e.g. bash tools/test.sh -R Scene, or -L scenes.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-bash "$root/tools/setup.sh"
+extended=0
+if [ "${1:-}" = "--extended" ]; then
+  extended=1
+  shift
+fi
+if [ $extended -eq 1 ]; then bash "$root/tools/setup.sh" --sanitizers; else bash "$root/tools/setup.sh"; fi
 cores=$(OMP_NUM_THREADS= nproc)   # nproc obeys OMP_NUM_THREADS, which env.sh sets
 source "$root/tools/env.sh"
 cd "${BUILD_DIR:-$root/build}"
-if [ $# -eq 0 ]; then set -- -LE 'long|render|scenes'; fi
+if [ $extended -eq 1 ]; then
+  set -- -L 'sanitize|scenes|long' -LE render "$@"
+elif [ $# -eq 0 ]; then
+  set -- -LE 'sanitize|scenes|long|render'
+fi
 exec ctest --output-on-failure -j "$cores" "$@"
