@@ -3,10 +3,10 @@
 #
 #   bash tools/test.sh              unit, MPI, CLI and short validation tests: what a user
 #                                   runs to know the build works (under 5 min on 2 cores)
-#   bash tools/test.sh --extended   the sanitizers (ASan+UBSan over the suite, libFuzzer
+#   bash tools/test.sh --extended   (labels sanitize, scenes, long, extended) the sanitizers (ASan+UBSan over the suite, libFuzzer
 #                                   over every reader), the shipped scenes checked by
 #                                   softcontact verify and the long validation runs
-#                                   (labels sanitize, scenes, long; about 25 min; CI runs
+#                                   (about 25 min; CI runs
 #                                   both). Installs the sanitizer toolchain first.
 #
 # Pictures (label 'render') need ParaView: bash tools/test.sh -L render.
@@ -23,8 +23,8 @@ cores=$(OMP_NUM_THREADS= nproc)   # nproc obeys OMP_NUM_THREADS, which env.sh se
 source "$root/tools/env.sh"
 cd "${BUILD_DIR:-$root/build}"
 if [ $extended -eq 1 ]; then
-  set -- -L 'sanitize|scenes|long' -LE render "$@"
+  set -- -L 'sanitize|scenes|long|extended' -LE render "$@"
 elif [ $# -eq 0 ]; then
-  set -- -LE 'sanitize|scenes|long|render'
+  set -- -LE 'sanitize|scenes|long|extended|render'
 fi
 exec ctest --output-on-failure -j "$cores" "$@"
