@@ -3,11 +3,12 @@
 #
 #   bash tools/test.sh              unit, MPI, CLI and short validation tests: what a user
 #                                   runs to know the build works (under 5 min on 2 cores)
-#   bash tools/test.sh --extended   (labels sanitize, scenes, long, extended) the sanitizers (ASan+UBSan over the suite, libFuzzer
+#   bash tools/test.sh --extended   the sanitizers (ASan+UBSan over the suite, libFuzzer
 #                                   over every reader), the shipped scenes checked by
-#                                   softcontact verify and the long validation runs
-#                                   (about 25 min; CI runs
-#                                   both). Installs the sanitizer toolchain first.
+#                                   softcontact verify, the real scenes under MPI and the
+#                                   long validation runs: labels sanitize, scenes, long,
+#                                   extended (about 25 min). Installs the sanitizer
+#                                   toolchain first. CI runs both commands.
 #
 # Pictures (label 'render') need ParaView: bash tools/test.sh -L render.
 # Other arguments go to ctest, e.g. bash tools/test.sh -R Scene, or -L scenes.
