@@ -20,6 +20,7 @@
 #include "softcontact/diagnostics.hpp"
 #include "softcontact/error.hpp"
 #include "softcontact/frame_writer.hpp"
+#include "softcontact/memory.hpp"
 #include "softcontact/simulator.hpp"
 #include "softcontact/forces.hpp"
 #include "softcontact/surface.hpp"
@@ -436,6 +437,8 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     json << js.str();
     if (!json.flush()) throw RuntimeFailure("cannot write '" + summary.verify_json + "'");
   }
+  summary.peak_rss = peak_rss_bytes();
+  MPI_Allreduce(MPI_IN_PLACE, &summary.peak_rss, 1, MPI_DOUBLE, MPI_MAX, comm);
   summary.steps = step - first;
   summary.sim_time = simulator.time();
   summary.wall_seconds = now() - wall0;
