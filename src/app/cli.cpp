@@ -57,8 +57,9 @@ const char* kMainHelp =
     "  --version          print the version\n"
     "\n"
     "exit status: 0 success (also a run stopped by SIGTERM/SIGINT after writing a checkpoint),\n"
-    "1 the run failed (verify: a limit exceeded), 2 bad input (scene, mesh, command line,\n"
-    "checkpoint, output directory), 3 numerical failure\n"
+    "1 the run failed (out of memory, I/O; verify: a limit exceeded), 2 bad input (scene, mesh,\n"
+    "command line, checkpoint, output directory, a run whose memory estimate cannot fit),\n"
+    "3 numerical failure (also an implicit solve that does not converge)\n"
     "PETSc options (e.g. -log_view) are read from the PETSC_OPTIONS environment variable.\n";
 
 const char* kRunHelp =
@@ -85,6 +86,8 @@ const char* kRunHelp =
     "  --quiet            no progress line (for batch logs); the final summary is kept\n"
     "  -h, --help         this help\n"
     "\n"
+    "The first line estimates the peak memory per rank; a run that cannot fit the address-space\n"
+    "limit (ulimit -v) or its share of the node's memory is refused before building (exit 2).\n"
     "SIGTERM or SIGINT (what batch schedulers send before a kill) ends the run after the\n"
     "current step with a checkpoint; the run stops with exit status 3 and a message saying\n"
     "where, when it becomes numerically unstable (docs/reliability.md).\n";
