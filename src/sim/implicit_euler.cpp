@@ -214,18 +214,25 @@ void ImplicitEuler::step(World& w, const Simulation& sim, const std::vector<doub
     PetscPopErrorHandler();
     KSPConvergedReason reason = KSP_CONVERGED_ITERATING;
     PetscInt its = 0;
-    PetscReal rnorm = 0;
     KSPGetConvergedReason(s.ksp, &reason);
     KSPGetIterationNumber(s.ksp, &its);
-    KSPGetResidualNorm(s.ksp, &rnorm);
     last_iterations_ += its;
     s.failed = ierr != 0 || reason < 0;
     if (s.failed && failed_object_ < 0) {
       PetscReal rtol = 0, abstol = 0, dtol = 0;
       PetscInt maxits = 0;
       KSPGetTolerances(s.ksp, &rtol, &abstol, &dtol, &maxits);
-      PetscReal bnorm = 0;
+      // The true relative residual |b - A x| / |b| of where the solve stopped (KSP's own
+      // norm is the preconditioned one).
+      PetscReal bnorm = 0, rnorm = 0;
+      Vec r = nullptr;
       VecNorm(s.b, NORM_2, &bnorm);
+      if (VecDuplicate(s.b, &r) == 0) {
+        MatMult(s.A, s.x, r);
+        VecAYPX(r, -1.0, s.b);
+        VecNorm(r, NORM_2, &rnorm);
+        VecDestroy(&r);
+      }
       std::ostringstream m;
       m.precision(3);
       m << "the implicit Euler solve of object '" << s.name << "' did not converge: ";
