@@ -24,6 +24,7 @@
 // "-implicit_ksp_rtol 1e-12 -implicit_pc_type jacobi").
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "softcontact/forces.hpp"
@@ -43,8 +44,20 @@ public:
 
   /// One step: solves (*) with f (n_local,3) [N] = gravity + internal forces at World::x
   /// (no damping), then World::x_prev = x^t, World::v = v', World::x = x^t + dt v'.
-  /// Throws RuntimeFailure when a solve does not converge.
+  /// A solve that does not converge (KSP divergence, a PETSc error in KSPSolve) throws
+  /// nothing: that object keeps x^t and v^t, and failed_object() / failure() say which
+  /// and why (the first failure, lowest object id, is kept until clear_failure()). The
+  /// caller makes it collective: the run loop's per-step reduction (health.cpp).
   void step(World& w, const Simulation& sim, const std::vector<double>& f);
+
+  /// The object whose solve failed first (scene index), -1 when none has.
+  int failed_object() const { return failed_object_; }
+  /// What failed: solver, reason, iterations, residual against tolerance ("" when none).
+  const std::string& failure() const { return failure_; }
+  void clear_failure() {
+    failed_object_ = -1;
+    failure_.clear();
+  }
 
   /// Krylov iterations of the last step, summed over objects.
   std::int64_t last_iterations() const { return last_iterations_; }
@@ -56,6 +69,8 @@ private:
   const ElasticForces& forces_;
   std::vector<std::unique_ptr<System>> systems_;
   std::int64_t last_iterations_ = 0;
+  int failed_object_ = -1;
+  std::string failure_;
 };
 
 }  // namespace softcontact

@@ -49,6 +49,7 @@ struct RunSummary {
   std::string last_checkpoint;       ///< the newest checkpoint written ("" when none)
   std::string stopped_by;            ///< "SIGTERM" / "SIGINT" when a signal ended the run early
   std::string verify_json;           ///< verify_steps.json when --verify-every was given ("" otherwise)
+  double peak_rss = 0;               ///< peak resident memory of the largest rank [bytes] (VmHWM)
 };
 
 /// Applies the overrides to the scene's simulation settings.

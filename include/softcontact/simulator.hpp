@@ -116,11 +116,12 @@ public:
   std::vector<ObjectBox> current_boxes();
   // ---- numerical-failure guard (health.cpp, docs/reliability.md)
   /// This rank's quick check after a step, no communication: 0 fine, 1 an owned vertex
-  /// moves faster than `max_speed`, 2 a non-finite position or velocity.
+  /// moves faster than `max_speed`, 2 a non-finite position or velocity, 3 an implicit
+  /// Euler solve did not converge (that object was left at its last state).
   int local_health(double max_speed) const;
   /// After local_health() reported a problem on some rank: where it is (the vertex with
-  /// the lowest global id that is non-finite, or the fastest one), as one message on
-  /// every rank. Collective.
+  /// the lowest global id that is non-finite, or the fastest one; for code 3 the
+  /// failed solve of the lowest object), as one message on every rank. Collective.
   std::string diagnose(int code, double max_speed);
   /// Counts inverted tets (det F <= 0) of movable objects; when more than
   /// `max_fraction` of them are, returns a message naming the first (lowest global id).

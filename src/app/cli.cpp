@@ -20,6 +20,7 @@
 #include "softcontact/bench.hpp"
 #include "softcontact/config.hpp"
 #include "softcontact/error.hpp"
+#include "softcontact/memory.hpp"
 #include "softcontact/run.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/surface.hpp"
@@ -32,6 +33,9 @@ std::string nearest(const std::string& word, const std::vector<std::string>& can
 }
 
 namespace {
+
+// The run's memory estimate [bytes per rank], for the message when memory runs out.
+double g_memory_estimate = 0;
 
 const char* kMainHelp =
     "softcontact " SOFTCONTACT_VERSION
@@ -53,8 +57,9 @@ const char* kMainHelp =
     "  --version          print the version\n"
     "\n"
     "exit status: 0 success (also a run stopped by SIGTERM/SIGINT after writing a checkpoint),\n"
-    "1 the run failed (verify: a limit exceeded), 2 bad input (scene, mesh, command line,\n"
-    "checkpoint, output directory), 3 numerical failure\n"
+    "1 the run failed (out of memory, I/O; verify: a limit exceeded), 2 bad input (scene, mesh,\n"
+    "command line, checkpoint, output directory, a run whose memory estimate cannot fit),\n"
+    "3 numerical failure (also an implicit solve that does not converge)\n"
     "PETSc options (e.g. -log_view) are read from the PETSC_OPTIONS environment variable.\n";
 
 const char* kRunHelp =
@@ -81,16 +86,25 @@ const char* kRunHelp =
     "  --quiet            no progress line (for batch logs); the final summary is kept\n"
     "  -h, --help         this help\n"
     "\n"
+    "The first line estimates the peak memory per rank; a run that cannot fit the address-space\n"
+    "limit (ulimit -v) or its share of the node's memory is refused before building (exit 2).\n"
     "SIGTERM or SIGINT (what batch schedulers send before a kill) ends the run after the\n"
     "current step with a checkpoint; the run stops with exit status 3 and a message saying\n"
     "where, when it becomes numerically unstable (docs/reliability.md).\n";
 
 const char* kCheckHelp =
-    "usage: softcontact check SCENE.yaml\n"
+    "usage: softcontact check SCENE.yaml [--ranks N]\n"
     "\n"
     "Reads and validates the scene and every mesh it uses, then prints a summary: objects,\n"
-    "vertices, tets, mass, stable time step, steps and frames. Nothing is written.\n"
-    "Exit status 2 with a message naming the file and line when something is wrong.\n";
+    "vertices, tets, mass, stable time step, steps and frames, and the estimated peak memory\n"
+    "per rank. Nothing is written.\n"
+    "\n"
+    "  --ranks N          estimate the memory for a run on N ranks (default: this command's ranks)\n"
+    "  -h, --help         this help\n"
+    "\n"
+    "Exit status 2 with a message naming the file and line when something is wrong, or when\n"
+    "the estimate does not fit this process's address-space limit (ulimit -v) or its share\n"
+    "of this node's available memory.\n";
 
 const char* kBenchHelp =
     "usage: mpirun -n RANKS softcontact bench SCENE.yaml [options]\n"
@@ -300,11 +314,20 @@ int cmd_check(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err
   const Scene s = load_scene(scene_argument(a, "check"));
   int rank = 0;
   MPI_Comm_rank(comm, &rank);
+  int size = 1;
+  MPI_Comm_size(comm, &size);
+  const int ranks = a.values.count("--ranks") ? static_cast<int>(parse_count("--ranks", a.values.at("--ranks"), "check")) : size;
+  const MemoryEstimate mem = estimate_memory(s, ranks);
   if (rank == 0) {
     print_warnings(s, err);
     print_summary(s, out);
-    out << "scene is valid\n";
+    out << "  memory: about " << format_bytes(mem.per_rank) << " peak per rank on " << ranks
+        << " rank(s); address space (ulimit -v) about " << format_bytes(address_space_needed(mem))
+        << " (docs/reliability.md, \"Memory\")\n";
   }
+  // The limits are this process's: they say something for a run on this node.
+  check_memory_fits(comm, mem, s.path);
+  if (rank == 0) out << "scene is valid\n";
   return 0;
 }
 
@@ -338,11 +361,14 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
   int rank = 0, size = 1;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);
+  const MemoryEstimate mem = estimate_memory(s, size);
+  g_memory_estimate = mem.per_rank;
   if (rank == 0) {
     print_warnings(s, err);
     out << "softcontact " << SOFTCONTACT_VERSION << ": " << s.path << ": " << s.objects.size() << " objects, "
         << s.num_vertices() << " vertices, " << s.num_tets() << " tets on " << size << " rank(s) x "
-        << omp_get_max_threads() << " thread(s); dt = " << s.sim.dt << " s, " << total_steps(s.sim) << " steps\n";
+        << omp_get_max_threads() << " thread(s); dt = " << s.sim.dt << " s, " << total_steps(s.sim)
+        << " steps; memory about " << format_bytes(mem.per_rank) << " per rank\n";
     if (restarting)
       out << "restart: from " << restart.path << " (step " << restart.info.step << ", written on " << restart.info.ranks
           << " rank(s))\n";
@@ -353,6 +379,8 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
     err << "softcontact: warning: " << size << " ranks for " << s.objects.size()
         << " objects: objects are never split, so " << size - static_cast<int>(s.objects.size())
         << " rank(s) will own nothing\n";
+  // Before anything is built: a run that cannot fit is refused now, not after an hour.
+  check_memory_fits(comm, mem, s.path);
   const RunSummary r = run_scene(comm, s, opt, out, restarting ? &restart : nullptr);
   if (rank == 0 && !r.stopped_by.empty()) {
     out << "\nstopped by " << r.stopped_by << " at step " << r.first_step + r.steps << " (t = " << r.sim_time
@@ -363,7 +391,8 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
   if (rank == 0) {
     out << "done: " << r.steps << " steps to t = " << r.sim_time << " s in " << std::setprecision(3) << r.wall_seconds
         << " s (" << std::setprecision(4) << (r.wall_seconds > 0 ? r.steps / r.wall_seconds : 0.0) << " steps/s), "
-        << r.frames << " frames\n"
+        << r.frames << " frames, peak memory " << format_bytes(r.peak_rss) << " per rank (largest; estimated "
+        << format_bytes(mem.per_rank) << ")\n"
         << "output:      " << r.xdmf << "  (open in ParaView: paraview " << r.xdmf << ")\n"
         << "             " << r.h5 << "  (HDF5, layout in docs/output-format.md)\n"
         << "diagnostics: " << r.csv << "\n";
@@ -484,7 +513,7 @@ int dispatch(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out
     return a.help ? say(kRunHelp) : cmd_run(a, comm, out, err);
   }
   if (cmd == "check") {
-    const Args a = parse_args(argc, argv, 2, "check", {}, {});
+    const Args a = parse_args(argc, argv, 2, "check", {"--ranks"}, {});
     return a.help ? say(kCheckHelp) : cmd_check(a, comm, out, err);
   }
   if (cmd == "bench") {
@@ -529,6 +558,19 @@ int run_cli(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out,
     // Detected collectively: every rank is here with the same message.
     if (rank == 0) err << "softcontact: error: " << e.what() << std::endl;
     return kExitNumericalFailure;
+  } catch (const std::bad_alloc&) {
+    // Out of memory on this rank: what it had, what was expected, what to try. The
+    // others may be waiting in a collective call, so end the whole job.
+    err << "softcontact: error";
+    if (size > 1) err << " on rank " << rank;
+    err << ": out of memory (std::bad_alloc) with " << format_bytes(peak_rss_bytes()) << " resident at the peak";
+    if (g_memory_estimate > 0) err << ", estimated " << format_bytes(g_memory_estimate) << " per rank";
+    const MemoryLimits lim = memory_limits(MPI_COMM_SELF);
+    if (lim.address_space > 0) err << ", address-space limit " << format_bytes(lim.address_space) << " (ulimit -v)";
+    err << ". Try more ranks on more nodes, fewer ranks per node, a higher limit, or coarser meshes "
+           "(docs/reliability.md, \"Memory\")" << std::endl;
+    if (size > 1) MPI_Abort(comm, 1);
+    return 1;
   } catch (const std::exception& e) {
     // A failure of this rank alone (I/O, numerical): the others may be waiting in a
     // collective call, so end the whole job.

@@ -3,6 +3,7 @@
 #include <petscksp.h>
 
 #include <algorithm>
+#include <sstream>
 #include <string>
 
 #include "softcontact/error.hpp"
@@ -27,6 +28,7 @@ struct ImplicitEuler::System {
   bool constant = false;                 ///< linear model: K does not depend on x
   double assembled_dt = 0;               ///< dt of the assembled matrix (constant systems)
   double alpha = 0, beta = 0;
+  bool failed = false;                   ///< the last solve did not converge
   std::vector<index_t> vertex;           ///< movable vertices (local indices), ascending
   std::vector<PetscInt> row_ptr, col;    ///< CSR, columns ascending in each row
   std::vector<PetscScalar> val;
@@ -202,20 +204,58 @@ void ImplicitEuler::step(World& w, const Simulation& sim, const std::vector<doub
     }
     check(VecRestoreArray(s.b, &rhs), "VecRestoreArray");
     check(VecRestoreArray(s.x, &sol), "VecRestoreArray");
-    check(KSPSolve(s.ksp, s.b, s.x), "KSPSolve");
-    KSPConvergedReason reason;
-    check(KSPGetConvergedReason(s.ksp, &reason), "KSPGetConvergedReason");
+    // A solve that fails (PETSc error or divergence) leaves the object where it was and
+    // is recorded, not thrown: only this rank knows, and the others may be in a
+    // collective call. The run loop's per-step reduction stops every rank together
+    // (Simulator::local_health, docs/reliability.md). PETSc's own error printing is off
+    // meanwhile: the message is ours.
+    PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);
+    const PetscErrorCode ierr = KSPSolve(s.ksp, s.b, s.x);
+    PetscPopErrorHandler();
+    KSPConvergedReason reason = KSP_CONVERGED_ITERATING;
     PetscInt its = 0;
-    check(KSPGetIterationNumber(s.ksp, &its), "KSPGetIterationNumber");
+    KSPGetConvergedReason(s.ksp, &reason);
+    KSPGetIterationNumber(s.ksp, &its);
     last_iterations_ += its;
-    if (reason < 0)
-      throw RuntimeFailure("implicit Euler: the linear solve of object '" + s.name + "' did not converge (" + KSPConvergedReasons[reason] + " after " + std::to_string(its) +
-                           " iterations); a smaller dt, or PETSC_OPTIONS with -implicit_ksp_max_it, may help");
+    s.failed = ierr != 0 || reason < 0;
+    if (s.failed && failed_object_ < 0) {
+      PetscReal rtol = 0, abstol = 0, dtol = 0;
+      PetscInt maxits = 0;
+      KSPGetTolerances(s.ksp, &rtol, &abstol, &dtol, &maxits);
+      // The true relative residual |b - A x| / |b| of where the solve stopped (KSP's own
+      // norm is the preconditioned one).
+      PetscReal bnorm = 0, rnorm = 0;
+      Vec r = nullptr;
+      VecNorm(s.b, NORM_2, &bnorm);
+      if (VecDuplicate(s.b, &r) == 0) {
+        MatMult(s.A, s.x, r);
+        VecAYPX(r, -1.0, s.b);
+        VecNorm(r, NORM_2, &rnorm);
+        VecDestroy(&r);
+      }
+      std::ostringstream m;
+      m.precision(3);
+      m << "the implicit Euler solve of object '" << s.name << "' did not converge: ";
+      if (ierr != 0) {
+        const char* text = nullptr;
+        PetscErrorMessage(ierr, &text, nullptr);
+        m << "PETSc error " << static_cast<int>(ierr);
+        if (text) m << " (" << text << ")";
+        m << " in KSPSolve";
+        if (reason < 0) m << ", ";
+      }
+      if (reason < 0) m << KSPConvergedReasons[reason];
+      m << " after " << its << " of at most " << maxits << " iterations, relative residual "
+        << (bnorm > 0 ? rnorm / bnorm : rnorm) << " (tolerance " << rtol << ")";
+      failed_object_ = s.object;
+      failure_ = m.str();
+    }
   }
   // x_prev = x^t, and the new state for movable vertices; kinematic vertices stay.
   w.x_prev.assign(w.x.begin(), w.x.end());
   for (const auto& sp : systems_) {
     const System& s = *sp;
+    if (s.failed) continue;  // stays at x^t, v^t
     const std::ptrdiff_t nv = static_cast<std::ptrdiff_t>(s.vertex.size());
     for (std::ptrdiff_t i = 0; i < nv; ++i) {
       const std::size_t v = s.vertex[i];

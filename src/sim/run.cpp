@@ -20,6 +20,7 @@
 #include "softcontact/diagnostics.hpp"
 #include "softcontact/error.hpp"
 #include "softcontact/frame_writer.hpp"
+#include "softcontact/memory.hpp"
 #include "softcontact/simulator.hpp"
 #include "softcontact/forces.hpp"
 #include "softcontact/surface.hpp"
@@ -292,15 +293,20 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
   std::int64_t last_checkpoint_step = continuing ? first : -1;
 
   // A failure: every rank throws the same message, with where to go on from.
-  auto fail = [&](const std::string& what) {
+  // `solver`: an implicit solve did not converge (the advice names its solver options).
+  auto fail = [&](const std::string& what, bool solver = false) {
     std::ostringstream m;
     m << "numerical failure at step " << step << " (t = " << format_time(simulator.time()) << " s): " << what
-      << ".\n  The run has become unstable. Try a smaller dt: now " << sim.dt << " s";
+      << (solver ? ".\n  Try a smaller dt: now " : ".\n  The run has become unstable. Try a smaller dt: now ") << sim.dt
+      << " s";
     const double stable = stable_time_step(scene);
     if (std::isfinite(stable))
       m << "; the stable explicit limit of this scene is " << stable << " s ('dt: auto' takes " << sim.dt_safety
         << " of it)";
     if (sim.integrator != IntegratorKind::implicit_euler) m << ", or the implicit_euler integrator";
+    if (solver)
+      m << "; or give the solver more room: PETSC_OPTIONS=\"-implicit_ksp_max_it N -implicit_ksp_rtol R\" "
+           "(defaults 10000 and 1e-10), or another preconditioner (-implicit_pc_type jacobi)";
     m << ".\n  Frames up to step " << writer->last_step() << " are in " << dir.string() << "; ";
     if (last_checkpoint.empty()) m << "no checkpoint was written (simulation.checkpoint, --checkpoint-every).";
     else m << "the last good checkpoint is " << last_checkpoint << " (step " << last_checkpoint_step << ").";
@@ -392,11 +398,11 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     if (verify_every > 0 && step % verify_every == 0) verify_step();
     if (step % every == 0 || step == nsteps) record();
     // One reduction a step: a stop signal on any rank, the health of every rank's
-    // vertices, and the wall time since the last checkpoint (rank clocks differ).
+    // vertices and implicit solves, and the wall time since the last checkpoint (rank clocks differ).
     double flags[3] = {static_cast<double>(g_signal), static_cast<double>(simulator.local_health(guard.max_speed)),
                        now() - since_checkpoint};
     MPI_Allreduce(MPI_IN_PLACE, flags, 3, MPI_DOUBLE, MPI_MAX, comm);
-    if (flags[1] > 0) fail(simulator.diagnose(static_cast<int>(flags[1]), guard.max_speed));
+    if (flags[1] > 0) fail(simulator.diagnose(static_cast<int>(flags[1]), guard.max_speed), flags[1] >= 3);
     stop_signal = static_cast<int>(flags[0]);
     const bool due = (ckpt_every > 0 && step % ckpt_every == 0) || (ckpt_seconds > 0 && flags[2] >= ckpt_seconds) ||
                      (checkpoints && step == nsteps) || stop_signal != 0;
@@ -431,6 +437,8 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     json << js.str();
     if (!json.flush()) throw RuntimeFailure("cannot write '" + summary.verify_json + "'");
   }
+  summary.peak_rss = peak_rss_bytes();
+  MPI_Allreduce(MPI_IN_PLACE, &summary.peak_rss, 1, MPI_DOUBLE, MPI_MAX, comm);
   summary.steps = step - first;
   summary.sim_time = simulator.time();
   summary.wall_seconds = now() - wall0;
