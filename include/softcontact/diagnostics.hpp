@@ -40,9 +40,12 @@ struct StepDiagnostics {
 /// Kinetic and potential energy and momentum of the owned vertices, summed per object in
 /// vertex order, and (when given) the per-object strain energy and inverted-tet count of
 /// ElasticForces::measure, then summed over objects in object order on rank 0 and
-/// broadcast. Collective.
+/// broadcast. With `contact_force` (3 per local vertex, ContactSolver::force) also the
+/// contact force balance |sum F| / sum |F|, summed the same way over every owned vertex,
+/// kinematic ones included, so that it too is bitwise the same on any number of ranks.
+/// Collective.
 void reduce_mechanics(MPI_Comm comm, const Scene& scene, const World& world, StepDiagnostics& d,
-                      const ElasticMeasures* elastic = nullptr);
+                      const ElasticMeasures* elastic = nullptr, const double* contact_force = nullptr);
 
 /// The diagnostics CSV (rank 0 only; other ranks hold a closed writer).
 class DiagnosticsCsv {

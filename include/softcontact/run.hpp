@@ -50,6 +50,10 @@ struct RunSummary {
   std::string stopped_by;            ///< "SIGTERM" / "SIGINT" when a signal ended the run early
   std::string verify_json;           ///< verify_steps.json when --verify-every was given ("" otherwise)
   double peak_rss = 0;               ///< peak resident memory of the largest rank [bytes] (VmHWM)
+  /// Ghost-set rebuilds and repartitions (migrations) during the run's steps, the same on
+  /// every rank; the set built at the start is not counted. 0 on one rank
+  /// (docs/architecture.md, "Ghost set" and "Migration").
+  std::int64_t ghost_rebuilds = 0, repartitions = 0;
 };
 
 /// Applies the overrides to the scene's simulation settings.

@@ -396,6 +396,8 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
         << "output:      " << r.xdmf << "  (open in ParaView: paraview " << r.xdmf << ")\n"
         << "             " << r.h5 << "  (HDF5, layout in docs/output-format.md)\n"
         << "diagnostics: " << r.csv << "\n";
+    if (size > 1)
+      out << "ranks:       " << r.ghost_rebuilds << " ghost-set rebuilds, " << r.repartitions << " repartitions\n";
     if (!r.verify_json.empty()) out << "verify:      " << r.verify_json << "\n";
   }
   return 0;

@@ -1,5 +1,6 @@
 #include "softcontact/diagnostics.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
@@ -25,16 +26,22 @@ PhaseTimes PhaseTimes::scaled(double s) const {
 }
 
 void reduce_mechanics(MPI_Comm comm, const Scene& scene, const World& w, StepDiagnostics& d,
-                      const ElasticMeasures* elastic) {
+                      const ElasticMeasures* elastic, const double* contact_force) {
   // kinetic, potential, px, py, pz, elastic energy, inverted tets (a count, exact as a
-  // double far beyond any mesh size)
-  constexpr int K = 7;
+  // double far beyond any mesh size), contact force x, y, z and its norms' sum
+  constexpr int K = 11;
   const Vec3& g = scene.sim.gravity;
   std::vector<double> mine(K * w.owned_objects.size(), 0.0);
   // Owned vertices are stored object by object in owned_objects order.
   std::size_t o = 0;
   for (std::size_t i = 0; i < w.n_owned; ++i) {
     while (w.owned_objects[o] != w.vertex_object[i]) ++o;
+    if (contact_force) {
+      const double* f = &contact_force[3 * i];
+      double* s = &mine[K * o];
+      for (int c = 0; c < 3; ++c) s[7 + c] += f[c];
+      s[10] += std::sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
+    }
     if (w.inv_mass[i] == 0) continue;
     const double m = w.mass[i];
     const double* v = &w.v[3 * i];
@@ -66,7 +73,7 @@ void reduce_mechanics(MPI_Comm comm, const Scene& scene, const World& w, StepDia
     all.resize(static_cast<std::size_t>(off));
   }
   MPI_Gatherv(mine.data(), count, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, 0, comm);
-  double totals[K] = {0, 0, 0, 0, 0, 0, 0};
+  double totals[K] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
   if (rank == 0) {
     // Blocks arrive grouped by rank; re-sort them into object order before summing.
     std::vector<const double*> by_object(w.layout.size(), nullptr);
@@ -84,6 +91,8 @@ void reduce_mechanics(MPI_Comm comm, const Scene& scene, const World& w, StepDia
   d.momentum = {totals[2], totals[3], totals[4]};
   d.elastic_energy = totals[5];
   d.inverted_elements = static_cast<std::int64_t>(totals[6]);
+  if (contact_force)
+    d.contact_force_balance = totals[10] > 0 ? std::hypot(totals[7], totals[8], totals[9]) / totals[10] : 0;
 }
 
 const char* DiagnosticsCsv::header() {

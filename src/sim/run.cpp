@@ -247,6 +247,7 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
   }
   Simulator simulator(comm, scene, partition);
   if (restart) read_checkpoint_state(comm, restart->path, restart->info, simulator);
+  const std::int64_t rebuilds0 = simulator.ghost_rebuilds(), repartitions0 = simulator.repartitions();
   if (rank == 0 && !restart && simulator.initial_overlaps() > 0)
     std::cerr << scene.path << ": warning: " << simulator.initial_overlaps()
               << " vertices start inside other objects (deepest " << simulator.initial_overlap_depth()
@@ -444,6 +445,8 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
   summary.wall_seconds = now() - wall0;
   summary.frames = writer->frames_written();
   summary.last_checkpoint = last_checkpoint;
+  summary.ghost_rebuilds = simulator.ghost_rebuilds() - rebuilds0;
+  summary.repartitions = simulator.repartitions() - repartitions0;
   if (stop_signal != 0) summary.stopped_by = signal_name(stop_signal);
   return summary;
 }

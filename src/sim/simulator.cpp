@@ -543,19 +543,17 @@ void Simulator::measure(StepDiagnostics& d, const VerifyFrame* check) {
   d.time = time();
   ElasticMeasures em;
   elastic_->measure(world_, em);
-  reduce_mechanics(comm_, scene_, world_, d, &em);
+  // Contact forces of this step's response; their balance is summed per object in
+  // vertex order, then over objects in object order (any rank count: the same bits).
+  reduce_mechanics(comm_, scene_, world_, d, &em, contact_->force().data());
   // Residual penetration: not the detector's own depths (a second detection pass would
   // repeat its assumptions) but the independent check's deepest surface vertex (verify.hpp).
   const double residual = (check ? *check : verify(false)).surface_depth();
 
-  double sums[4] = {contact_stats_.force_sum[0], contact_stats_.force_sum[1], contact_stats_.force_sum[2],
-                    contact_stats_.force_abs_sum};
-  MPI_Allreduce(MPI_IN_PLACE, sums, 4, MPI_DOUBLE, MPI_SUM, comm_);
   std::int64_t contacts = collision_stats_.colliding_points, total = 0;
   MPI_Allreduce(&contacts, &total, 1, MPI_INT64_T, MPI_SUM, comm_);
   d.contacts = total;
   d.residual_penetration = residual;
-  d.contact_force_balance = sums[3] > 0 ? std::hypot(sums[0], sums[1], sums[2]) / sums[3] : 0;
 }
 
 VerifyFrame Simulator::verify(bool full) {
