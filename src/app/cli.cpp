@@ -20,6 +20,7 @@
 #include "softcontact/bench.hpp"
 #include "softcontact/config.hpp"
 #include "softcontact/error.hpp"
+#include "softcontact/fault.hpp"
 #include "softcontact/run.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/surface.hpp"
@@ -309,6 +310,12 @@ int cmd_check(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err
 }
 
 int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) {
+  {
+    int world_rank = 0, world_size = 1;
+    MPI_Comm_rank(MPI_COMM_WORLD, &world_rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &world_size);
+    fault::configure(world_rank, world_size);  // the testing hook SOFTCONTACT_FAULT (docs/reliability.md)
+  }
   RunOptions opt;
   if (a.values.count("--steps")) opt.steps = parse_count("--steps", a.values.at("--steps"), "run");
   if (a.values.count("--end-time")) opt.end_time = parse_seconds("--end-time", a.values.at("--end-time"), "run");
@@ -529,6 +536,10 @@ int run_cli(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out,
     // Detected collectively: every rank is here with the same message.
     if (rank == 0) err << "softcontact: error: " << e.what() << std::endl;
     return kExitNumericalFailure;
+  } catch (const CollectiveFailure& e) {
+    // Detected by every rank together, with the same message.
+    if (rank == 0) err << "softcontact: error: " << e.what() << std::endl;
+    return 1;
   } catch (const std::exception& e) {
     // A failure of this rank alone (I/O, numerical): the others may be waiting in a
     // collective call, so end the whole job.
