@@ -54,8 +54,8 @@ const char* kMainHelp =
     "  --version          print the version\n"
     "\n"
     "exit status: 0 success (also a run stopped by SIGTERM/SIGINT after writing a checkpoint),\n"
-    "1 the run failed (verify: a limit exceeded), 2 bad input (scene, mesh, command line,\n"
-    "checkpoint, output directory), 3 numerical failure\n"
+    "1 the run failed (an I/O error; verify: a limit exceeded), 2 bad input (scene, mesh,\n"
+    "command line, checkpoint, output directory), 3 numerical failure\n"
     "PETSc options (e.g. -log_view) are read from the PETSC_OPTIONS environment variable.\n";
 
 const char* kRunHelp =
