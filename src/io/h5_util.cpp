@@ -199,12 +199,13 @@ hid_t create_parallel(MPI_Comm comm, const std::string& path, const std::string&
     file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
     H5Pclose(fapl);
   }
-  int ok = file >= 0 ? 1 : 0;
-  MPI_Allreduce(MPI_IN_PLACE, &ok, 1, MPI_INT, MPI_MIN, comm);
-  if (!ok) {
-    if (file >= 0) H5Fclose(file);
-    throw CollectiveFailure("cannot create " + what + " '" + path + "'");
-  }
+  int created = file >= 0 ? 1 : 0;
+  MPI_Allreduce(MPI_IN_PLACE, &created, 1, MPI_INT, MPI_MAX, comm);
+  const std::string message = "cannot create " + what + " '" + path + "'";
+  if (!created) throw CollectiveFailure(message);
+  // Some ranks only: a failure of those ranks alone (they end the job with MPI_Abort; the
+  // others wait in the next collective call, since closing the file would be one too).
+  if (file < 0) throw RuntimeFailure(message);
   return file;
 }
 
