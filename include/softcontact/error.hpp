@@ -37,6 +37,16 @@ public:
   using std::runtime_error::runtime_error;
 };
 
+/// A failure of the run that every rank detects together, thrown on every rank with the
+/// same message (the output directory or a file cannot be created, a rename failed):
+/// rank 0 prints it once and every rank ends with exit status 1, without MPI_Abort.
+/// A RuntimeFailure that is not collective is one rank's alone: that rank prints it and
+/// ends the job with MPI_Abort, since the others may be waiting in a collective call.
+class CollectiveFailure : public RuntimeFailure {
+public:
+  using RuntimeFailure::RuntimeFailure;
+};
+
 /// Exit status when the numerical-failure guard stops a run (docs/reliability.md).
 inline constexpr int kExitNumericalFailure = 3;
 

@@ -20,6 +20,7 @@
 #include "softcontact/bench.hpp"
 #include "softcontact/config.hpp"
 #include "softcontact/error.hpp"
+#include "softcontact/fault.hpp"
 #include "softcontact/memory.hpp"
 #include "softcontact/run.hpp"
 #include "softcontact/scene.hpp"
@@ -57,9 +58,9 @@ const char* kMainHelp =
     "  --version          print the version\n"
     "\n"
     "exit status: 0 success (also a run stopped by SIGTERM/SIGINT after writing a checkpoint),\n"
-    "1 the run failed (out of memory, I/O; verify: a limit exceeded), 2 bad input (scene, mesh,\n"
-    "command line, checkpoint, output directory, a run whose memory estimate cannot fit),\n"
-    "3 numerical failure (also an implicit solve that does not converge)\n"
+    "1 the run failed (out of memory, an I/O error; verify: a limit exceeded), 2 bad input\n"
+    "(scene, mesh, command line, checkpoint, output directory, a run whose memory estimate\n"
+    "cannot fit), 3 numerical failure (also an implicit solve that does not converge)\n"
     "PETSc options (e.g. -log_view) are read from the PETSC_OPTIONS environment variable.\n";
 
 const char* kRunHelp =
@@ -332,6 +333,12 @@ int cmd_check(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err
 }
 
 int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) {
+  {
+    int world_rank = 0, world_size = 1;
+    MPI_Comm_rank(MPI_COMM_WORLD, &world_rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &world_size);
+    fault::configure(world_rank, world_size);  // the testing hook SOFTCONTACT_FAULT (docs/reliability.md)
+  }
   RunOptions opt;
   if (a.values.count("--steps")) opt.steps = parse_count("--steps", a.values.at("--steps"), "run");
   if (a.values.count("--end-time")) opt.end_time = parse_seconds("--end-time", a.values.at("--end-time"), "run");
@@ -560,6 +567,10 @@ int run_cli(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out,
     // Detected collectively: every rank is here with the same message.
     if (rank == 0) err << "softcontact: error: " << e.what() << std::endl;
     return kExitNumericalFailure;
+  } catch (const CollectiveFailure& e) {
+    // Detected by every rank together, with the same message.
+    if (rank == 0) err << "softcontact: error: " << e.what() << std::endl;
+    return 1;
   } catch (const std::bad_alloc&) {
     // Out of memory on this rank: what it had, what was expected, what to try. The
     // others may be waiting in a collective call, so end the whole job.

@@ -7,6 +7,7 @@
 
 #include "h5_util.hpp"
 #include "softcontact/error.hpp"
+#include "softcontact/fault.hpp"
 #include "softcontact/simulator.hpp"
 
 namespace softcontact {
@@ -156,14 +157,13 @@ void write_checkpoint(MPI_Comm comm, const std::string& path, Simulator& sim, Ch
   MPI_Barrier(comm);
 
   const std::string tmp = path + ".tmp";
-  const hid_t fapl = h5::mpio_access(comm);
-  const hid_t file = H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
-  H5Pclose(fapl);
-  if (file < 0) throw RuntimeFailure("cannot create the checkpoint '" + tmp + "'");
+  const hid_t file = h5::create_parallel(comm, tmp, "the checkpoint");
   const hid_t state = h5::check_id(H5Gcreate2(file, "/state", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), "create /state");
   const std::vector<GidRun> runs = owned_vertex_runs(w);
   const gid_t nv = w.global_vertices;
   h5::write_rows(state, "x", nv, 3, runs, w.x.data());
+  if (fault::hit(fault::Point::checkpoint_write, info.step))
+    throw RuntimeFailure(fault::io_error(fault::Point::checkpoint_write, tmp));
   h5::write_rows(state, "x_prev", nv, 3, runs, w.x_prev.data());
   h5::write_rows(state, "v", nv, 3, runs, w.v.data());
   const std::vector<StictionAnchor>& anchors = sim.anchors();
@@ -214,7 +214,11 @@ void write_checkpoint(MPI_Comm comm, const std::string& path, Simulator& sim, Ch
   h5::write_string_attribute(run, "output_dir", info.output_dir);
   H5Gclose(run);
   h5::check(H5Fclose(file), "close " + tmp);
+  if (fault::hit(fault::Point::checkpoint_rename, info.step))
+    throw RuntimeFailure(fault::io_error(fault::Point::checkpoint_rename, path));
   h5::publish(comm, tmp, path, true);
+  if (fault::hit(fault::Point::checkpoint_renamed, info.step))
+    throw RuntimeFailure(fault::io_error(fault::Point::checkpoint_renamed, path));
 }
 
 namespace {

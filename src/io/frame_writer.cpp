@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "softcontact/error.hpp"
+#include "softcontact/fault.hpp"
 #include "h5_util.hpp"
 
 namespace softcontact {
@@ -65,10 +66,7 @@ FrameWriter::FrameWriter(MPI_Comm comm, const std::string& h5_path, const std::s
     std::filesystem::create_directories(std::filesystem::path(dir_) / kFramesDir, ec);
   }
   const std::string mesh_path = (std::filesystem::path(dir_) / kMeshFile).string(), tmp = mesh_path + ".tmp";
-  const hid_t fapl = h5::mpio_access(comm_);
-  const hid_t file = H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
-  H5Pclose(fapl);
-  if (file < 0) throw RuntimeFailure("cannot create the output file '" + tmp + "'");
+  const hid_t file = h5::create_parallel(comm_, tmp, "the output file");
   const hid_t mesh = check_id(H5Gcreate2(file, "/mesh", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), "create /mesh");
 
   // Owned rows in global order; connectivity in global vertex ids.
@@ -157,9 +155,14 @@ FrameWriter::FrameWriter(MPI_Comm comm, const std::string& h5_path, const std::s
       write_xdmf();
     }
   }
-  int ok = failure.empty() ? 1 : 0;
-  MPI_Bcast(&ok, 1, MPI_INT, 0, comm_);
-  if (!ok) throw RuntimeFailure(rank_ == 0 ? failure : "rank 0 cannot continue the output in '" + dir_ + "'");
+  // Length > 0: rank 0 cannot continue, and every rank throws its message.
+  long long length = static_cast<long long>(failure.size());
+  MPI_Bcast(&length, 1, MPI_LONG_LONG, 0, comm_);
+  if (length > 0) {
+    failure.resize(static_cast<std::size_t>(length));
+    MPI_Bcast(failure.data(), static_cast<int>(length), MPI_CHAR, 0, comm_);
+    throw CollectiveFailure(failure);
+  }
   std::int64_t state[2] = {count_, last_step_};
   MPI_Bcast(state, 2, MPI_INT64_T, 0, comm_);
   count_ = state[0];
@@ -169,16 +172,14 @@ FrameWriter::FrameWriter(MPI_Comm comm, const std::string& h5_path, const std::s
 void FrameWriter::write_frame(std::int64_t step, double time, const World& w, const std::vector<VertexField>& extra) {
   const std::int64_t k = frames_written();
   const std::string path = (std::filesystem::path(dir_) / frame_file(k)).string(), tmp = path + ".tmp";
-  const hid_t fapl = h5::mpio_access(comm_);
-  const hid_t g = H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
-  H5Pclose(fapl);
-  if (g < 0) throw RuntimeFailure("cannot create the frame file '" + tmp + "'");
+  const hid_t g = h5::create_parallel(comm_, tmp, "the frame file");
   h5::write_attribute(g, "time", time);
   h5::write_attribute(g, "step", step);
 
   FrameInfo info{step, time, {}, {}};
   vertex_runs_ = owned_vertex_runs(w);  // objects may have migrated since the last frame
   write_rows(g, "positions", nv_, 3, vertex_runs_, w.x.data());
+  if (fault::hit(fault::Point::frame_write, step)) throw RuntimeFailure(fault::io_error(fault::Point::frame_write, tmp));
   write_rows(g, "velocities", nv_, 3, vertex_runs_, w.v.data());
   info.fields.emplace_back("velocity", 3);
   info.datasets.push_back("velocities");
@@ -191,7 +192,10 @@ void FrameWriter::write_frame(std::int64_t step, double time, const World& w, co
   }
   h5::write_string_attribute(g, "fields", encode_fields(info.fields, info.datasets));
   check(H5Fclose(g), "close " + tmp);
+  if (fault::hit(fault::Point::frame_rename, step)) throw RuntimeFailure(fault::io_error(fault::Point::frame_rename, path));
   h5::publish(comm_, tmp, path, false);
+  if (fault::hit(fault::Point::frame_renamed, step))
+    throw RuntimeFailure(fault::io_error(fault::Point::frame_renamed, h5_path_));
   ++count_;
   last_step_ = step;
   if (rank_ == 0) {

@@ -191,6 +191,24 @@ hid_t mpio_access(MPI_Comm comm) {
   return fapl;
 }
 
+hid_t create_parallel(MPI_Comm comm, const std::string& path, const std::string& what) {
+  hid_t file = -1;
+  {
+    const QuietErrors quiet;
+    const hid_t fapl = mpio_access(comm);
+    file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+    H5Pclose(fapl);
+  }
+  int created = file >= 0 ? 1 : 0;
+  MPI_Allreduce(MPI_IN_PLACE, &created, 1, MPI_INT, MPI_MAX, comm);
+  const std::string message = "cannot create " + what + " '" + path + "'";
+  if (!created) throw CollectiveFailure(message);
+  // Some ranks only: a failure of those ranks alone (they end the job with MPI_Abort; the
+  // others wait in the next collective call, since closing the file would be one too).
+  if (file < 0) throw RuntimeFailure(message);
+  return file;
+}
+
 QuietErrors::QuietErrors() {
   H5Eget_auto2(H5E_DEFAULT, &func_, &data_);
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
@@ -230,7 +248,14 @@ void publish(MPI_Comm comm, const std::string& tmp, const std::string& path, boo
     }
   }
   MPI_Bcast(&ok, 1, MPI_INT, 0, comm);
-  if (!ok) throw RuntimeFailure(rank == 0 ? why : "rank 0 could not publish '" + path + "'");
+  if (!ok) {
+    // The same message on every rank: one of them prints it.
+    long long n = static_cast<long long>(why.size());
+    MPI_Bcast(&n, 1, MPI_LONG_LONG, 0, comm);
+    why.resize(static_cast<std::size_t>(n));
+    MPI_Bcast(why.data(), static_cast<int>(n), MPI_CHAR, 0, comm);
+    throw CollectiveFailure(why);
+  }
 }
 
 void write_text_atomically(const std::string& path, const std::string& text) {

@@ -61,6 +61,11 @@ std::string read_string_attribute(hid_t loc, const char* name, const std::string
 /// File access with the MPI-IO driver on `comm`.
 hid_t mpio_access(MPI_Comm comm);
 
+/// Creates (truncates) `path` for parallel writing on every rank of `comm`. When every
+/// rank fails, every rank throws the same CollectiveFailure "cannot create WHAT 'path'";
+/// when some do, those throw it as a RuntimeFailure of their own. Collective.
+hid_t create_parallel(MPI_Comm comm, const std::string& path, const std::string& what);
+
 /// Switches HDF5's automatic error printing off for the life of the object (files that
 /// may be damaged are probed; their failures are ours to report).
 class QuietErrors {

@@ -19,6 +19,7 @@
 #include "softcontact/checkpoint.hpp"
 #include "softcontact/diagnostics.hpp"
 #include "softcontact/error.hpp"
+#include "softcontact/fault.hpp"
 #include "softcontact/frame_writer.hpp"
 #include "softcontact/memory.hpp"
 #include "softcontact/simulator.hpp"
@@ -274,7 +275,7 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     }
   }
   MPI_Bcast(&made, 1, MPI_INT, 0, comm);
-  if (!made) throw RuntimeFailure("cannot create the output directory '" + sim.output_dir + "'");
+  if (!made) throw CollectiveFailure("cannot create the output directory '" + sim.output_dir + "'");
 
   World& world = simulator.world();
   std::unique_ptr<FrameWriter> writer =
@@ -396,6 +397,8 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
   while (step < nsteps) {
     simulator.step();
     ++step;
+    if (fault::hit(fault::Point::step, step) && world.n_owned > 0)  // a numerical failure on this rank
+      world.x[0] = std::numeric_limits<double>::quiet_NaN();
     if (verify_every > 0 && step % verify_every == 0) verify_step();
     if (step % every == 0 || step == nsteps) record();
     // One reduction a step: a stop signal on any rank, the health of every rank's

@@ -2,9 +2,14 @@
 """Checks a run's output directory after a kill: frames.h5 opens with h5py, every frame it
 links and every dataset the XDMF names can be read with the stated shape, no referenced
 file is a temporary one; with a second directory, every frame of the first is bitwise
-equal to the same frame of the second (owner_rank aside).
+equal to the same frame of the second (owner_rank aside). --same-count: both have the
+same frames. --by-step: frames are matched by their step, not their number (a run
+continued into a new directory starts at its checkpoint's step), and the first directory
+must hold every frame the reference has from its first step on; its first frame, written
+at the checkpoint before any step, is compared in positions and velocities only (contact
+forces and penetrations are results of a step, not part of a checkpoint).
 
-usage: check_output.py DIR [REFERENCE_DIR] [--min-frames N] [--same-count]"""
+usage: check_output.py DIR [REFERENCE_DIR] [--min-frames N] [--same-count] [--by-step]"""
 import re
 import sys
 import xml.etree.ElementTree as ET
@@ -52,7 +57,22 @@ for item in root.iter("DataItem"):
 if items == 0 and min_frames > 0:
     fail("the XDMF names no dataset")
 
-if ref:
+if ref and "--by-step" in opts:
+    with h5py.File(run + "/frames.h5", "r") as a, h5py.File(ref + "/frames.h5", "r") as b:
+        sa = {int(a["frames"][k].attrs["step"]): k for k in a["frames"]}
+        sb = {int(b["frames"][k].attrs["step"]): k for k in b["frames"]}
+        if not sa:
+            fail(f"{run} has no frame")
+        want = sorted(s for s in sb if s >= min(sa))
+        if sorted(sa) != want:
+            fail(f"{run} has frames at steps {sorted(sa)}, {ref} from step {min(sa)} on at {want}")
+        for s, k in sa.items():
+            for d in a["frames"][k]:
+                if d == "owner_rank" or (s == min(sa) and d not in ("positions", "velocities")):
+                    continue
+                if a["frames"][k][d][:].tobytes() != b["frames"][sb[s]][d][:].tobytes():
+                    fail(f"step {s}: dataset {d} differs between {run} (frame {k}) and {ref} (frame {sb[s]})")
+elif ref:
     with h5py.File(run + "/frames.h5", "r") as a, h5py.File(ref + "/frames.h5", "r") as b:
         fa, fb = sorted(a["frames"]), sorted(b["frames"])
         if "--same-count" in opts and fa != fb:

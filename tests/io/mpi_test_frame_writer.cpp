@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "softcontact/diagnostics.hpp"
+#include "softcontact/error.hpp"
 #include "softcontact/frame_writer.hpp"
 #include "softcontact/mpi_util.hpp"
 #include "softcontact/scene.hpp"
@@ -157,6 +158,55 @@ TEST(FrameWriter, OwnedRowsLandAtGlobalOffsetsAndXdmfReferencesExistingDatasets)
   EXPECT_NE(text.find("<Time Value=\"0.0070000000000000001\"/>"), std::string::npos);
   EXPECT_NE(text.find("penetration_depth"), std::string::npos);
   H5Fclose(f);
+}
+
+// A file no rank can create is a failure of all ranks together (docs/reliability.md, "One
+// rank fails, all stop"): every rank throws the same CollectiveFailure, which the program
+// prints once, instead of each rank printing its own and calling MPI_Abort. Cases: the
+// output directory lies under a regular file; the frames folder is replaced by a regular
+// file after the writer started (the output became unwritable in the middle of a run).
+TEST(FrameWriter, AFileNoRankCanCreateIsOneCollectiveFailure) {
+  MPI_Comm comm = MPI_COMM_WORLD;
+  const int rank = comm_rank(comm), size = comm_size(comm);
+  const Scene scene = five_objects();
+  World w = build_world(scene, block_partition(scene, size), rank);
+  const std::string dir = "frame_writer_unwritable_np" + std::to_string(size);
+  if (rank == 0) {
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir + "/run");
+    std::ofstream(dir + "/a_file") << "not a directory";
+  }
+  MPI_Barrier(comm);
+  // The same message on every rank, and every rank got one (the test would hang if not).
+  auto expect_collective = [&](auto&& make, const std::string& message) {
+    std::string got;
+    try {
+      make();
+    } catch (const CollectiveFailure& e) {
+      got = e.what();
+    }
+    EXPECT_EQ(got, message);
+    int same = got == message ? 1 : 0;
+    MPI_Allreduce(MPI_IN_PLACE, &same, 1, MPI_INT, MPI_MIN, comm);
+    EXPECT_EQ(same, 1) << "rank " << rank << ": '" << got << "'";
+  };
+  expect_collective([&] { FrameWriter(comm, dir + "/a_file/out/frames.h5", dir + "/a_file/out/frames.xdmf", scene, w); },
+                    "cannot create the output file '" + dir + "/a_file/out/mesh.h5.tmp'");
+  {
+    FrameWriter writer(comm, dir + "/run/frames.h5", dir + "/run/frames.xdmf", scene, w);
+    writer.write_frame(0, 0.0, w);
+    MPI_Barrier(comm);
+    if (rank == 0) {
+      std::filesystem::remove_all(dir + "/run/frames");
+      std::ofstream(dir + "/run/frames") << "not a directory";
+    }
+    MPI_Barrier(comm);
+    expect_collective([&] { writer.write_frame(1, 0.001, w); },
+                      "cannot create the frame file '" + dir + "/run/frames/000001.h5.tmp'");
+    EXPECT_EQ(writer.frames_written(), 1);
+  }
+  MPI_Barrier(comm);
+  if (rank == 0) std::filesystem::remove_all(dir);
 }
 
 TEST(Diagnostics, ReductionDoesNotDependOnRankCount) {

@@ -111,6 +111,69 @@ TEST(Restart, ContinuedRunEqualsUninterruptedOnSameAndOtherRankCounts) {
   if (rank == 0) fs::remove_all(dir);
 }
 
+// The restart matrix: a run written on A ranks continues on B ranks, bitwise equal to the
+// uninterrupted 1-rank run. Each pair runs in the test with max(A, B) ranks, on the first
+// A and then the first B ranks of MPI_COMM_WORLD (the rest wait): np2 1->2 and 2->1, np3
+// 2->3 and 3->2, np4 4->1 and 1->4.
+TEST(Restart, RankCountMatrixIsBitwise) {
+  const int rank = comm_rank(MPI_COMM_WORLD), n = comm_size(MPI_COMM_WORLD);
+  const fs::path dir = test::scratch_dir("sc_matrix");
+  RunOptions opt;
+  opt.quiet = true;
+  opt.overwrite = true;
+  std::ostringstream log;
+  Scene scene = pile();
+  if (rank == 0) {
+    scene.sim.output_dir = (dir / "one").string();
+    run_scene(MPI_COMM_SELF, scene, opt, log);
+  }
+  // The first `k` ranks, or MPI_COMM_NULL on the others.
+  auto first = [&](int k) {
+    MPI_Comm c = MPI_COMM_NULL;
+    MPI_Comm_split(MPI_COMM_WORLD, rank < k ? 0 : MPI_UNDEFINED, rank, &c);
+    return c;
+  };
+  const std::pair<int, int> pairs[] = {{1, 2}, {2, 1}, {2, 3}, {3, 2}, {4, 1}, {1, 4}};
+  int ran = 0;
+  for (const auto& [a, b] : pairs) {
+    if (std::max(a, b) != n) continue;
+    ++ran;
+    const std::string tag = std::to_string(a) + "to" + std::to_string(b);
+    const fs::path written = dir / ("w" + tag), cont = dir / ("c" + tag);
+    MPI_Comm ca = first(a), cb = first(b);
+    if (ca != MPI_COMM_NULL) {
+      Scene s = pile();
+      s.sim.output_dir = written.string();
+      run_scene(ca, s, opt, log);
+    }
+    MPI_Barrier(MPI_COMM_WORLD);
+    if (rank == 0) copy_run(written, cont, 40);
+    MPI_Barrier(MPI_COMM_WORLD);
+    if (cb != MPI_COMM_NULL) {
+      RestartPoint restart;
+      const Scene again = load_restart(cb, cont.string(), restart);
+      EXPECT_EQ(restart.info.step, 40);
+      EXPECT_EQ(restart.info.ranks, a);
+      RunOptions ropt = opt;
+      ropt.overwrite = false;
+      const RunSummary r = run_scene(cb, again, ropt, log, &restart);
+      EXPECT_EQ(r.first_step, 40);
+      EXPECT_EQ(r.steps, 80);
+    }
+    MPI_Barrier(MPI_COMM_WORLD);
+    if (rank == 0)
+      EXPECT_GT(test::expect_same_output(dir / "one", cont, "written on " + std::to_string(a) + " ranks, continued on " +
+                                                                 std::to_string(b),
+                                         13),
+                40);
+    for (MPI_Comm* c : {&ca, &cb})
+      if (*c != MPI_COMM_NULL) MPI_Comm_free(c);
+  }
+  EXPECT_EQ(ran, n == 1 ? 0 : 2);
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (rank == 0) fs::remove_all(dir);
+}
+
 TEST(Restart, KeepsOnlyTheNewestCheckpoints) {
   const int rank = comm_rank(MPI_COMM_WORLD);
   const fs::path dir = test::scratch_dir("sc_keep");
