@@ -33,7 +33,7 @@ while [ $# -gt 0 ]; do
     --target) [ $# -ge 2 ] || { echo "fuzz.sh: --target expects one of: ${all_targets[*]}" >&2; exit 2; }
               targets=("$2"); shift ;;
     --target=*) targets=("${1#*=}") ;;
-    -h|--help) sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "fuzz.sh: unknown option '$1' (expected --replay, --seconds N, --target NAME)" >&2; exit 2 ;;
   esac
   shift
