@@ -8,7 +8,7 @@
 # Usage: bash tools/fuzz.sh [--replay] [--seconds N] [--target NAME]
 #   --replay      only replay the corpus (no fuzzing)
 #   --seconds N   fuzz each target for N seconds (default 30)
-#   --target NAME only this target: scene, gmsh or tetgen (default: all)
+#   --target NAME only this target: scene, gmsh, tetgen, checkpoint or frames (default: all)
 # Environment: FUZZ_BUILD_DIR (default build-fuzz), JOBS.
 # Needs clang with libFuzzer, ASan/UBSan and OpenMP: 'bash tools/setup.sh --sanitizers'
 # installs them; without them this script says so and exits with status 2.
@@ -21,7 +21,7 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${FUZZ_BUILD_DIR:-$root/build-fuzz}
 jobs=${JOBS:-$(OMP_NUM_THREADS= nproc)}
-all_targets=(scene gmsh tetgen)
+all_targets=(scene gmsh tetgen checkpoint frames)
 
 replay_only=0 seconds=30 targets=("${all_targets[@]}")
 while [ $# -gt 0 ]; do
