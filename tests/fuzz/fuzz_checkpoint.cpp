@@ -14,16 +14,18 @@
 // memory (core driver) and the file image opened again read-only, so that the reader
 // decodes the bytes as from disk. An empty input is the valid checkpoint of scene 0.
 //
-// Raw mode: an input that begins with the HDF5 signature is itself the file image
-// (a real checkpoint, mutated byte by byte). libhdf5 is not instrumented and does not
-// survive all such bytes (docs/reliability.md, "Bad input"), so tools/fuzz.sh fuzzes
-// only the structured mode; the corpus holds real checkpoints for replay.
+// Raw mode, with SOFTCONTACT_FUZZ_RAW=1 in the environment: an input that begins with
+// the HDF5 signature is itself the file image (a real checkpoint, mutated byte by byte).
+// libhdf5 1.10 does not survive such bytes: within about a thousand inputs it leaks or
+// overflows a heap buffer inside H5Aexists (docs/reliability.md, "Bad input"), which is
+// not ours to fix, so tools/fuzz.sh and the corpus use the structured mode only.
 #include <fuzzer/FuzzedDataProvider.h>
 #include <hdf5.h>
 
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -256,7 +258,8 @@ void run_image(const void* data, std::size_t size) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  if (size >= 8 && std::memcmp(data, "\x89HDF\r\n\x1a\n", 8) == 0) {
+  static const bool raw = std::getenv("SOFTCONTACT_FUZZ_RAW") != nullptr;
+  if (raw && size >= 8 && std::memcmp(data, "\x89HDF\r\n\x1a\n", 8) == 0) {
     run_image(data, size);
     return 0;
   }
