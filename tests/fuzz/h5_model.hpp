@@ -77,16 +77,18 @@ inline void mutate(H5Model& m, FuzzedDataProvider& in, const std::vector<std::st
     case 1:  // another type
       e.kind = static_cast<H5Kind>(in.ConsumeIntegralInRange<int>(0, static_cast<int>(H5Kind::count) - 1));
       break;
-    case 2: {  // another shape: rank 0..3, extents near the old ones, values kept or padded
+    case 2: {  // another shape: rank 0..3, extents near the old ones (at most 4096), values kept or padded
       const int rank = in.ConsumeIntegralInRange<int>(0, 3);
       std::vector<hsize_t> dims;
       for (int d = 0; d < rank; ++d) {
-        const hsize_t old = d < static_cast<int>(e.dims.size()) ? e.dims[static_cast<std::size_t>(d)] : 1;
+        const hsize_t old =
+            std::min<hsize_t>(4096, d < static_cast<int>(e.dims.size()) ? e.dims[static_cast<std::size_t>(d)] : 1);
         dims.push_back(static_cast<hsize_t>(std::max<long long>(0, static_cast<long long>(old) + in.ConsumeIntegralInRange<int>(-2, 2))));
       }
       e.dims = dims;
-      e.values.resize(element_count(e), 0.0);
+      e.values.resize(std::min<hsize_t>(element_count(e), hsize_t{1} << 20), 0.0);
       e.ints.clear();
+      e.unwritten = false;
       break;
     }
     case 3: {  // overwrite values
@@ -170,7 +172,7 @@ inline void write_model(hid_t file, const H5Model& m) {
     const hid_t type = detail::file_type(e.kind, e.text.size());
     const hid_t obj = e.attribute ? H5Acreate2(g, e.name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT)
                                   : H5Dcreate2(g, e.name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-    if (obj >= 0 && !e.unwritten && n <= (hsize_t{1} << 20)) {
+    if (obj >= 0 && !e.unwritten && n <= (text ? hsize_t{4096} : hsize_t{1} << 20)) {
       herr_t status = 0;
       if (text) {
         // Every element the same text.
