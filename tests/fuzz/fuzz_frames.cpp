@@ -129,8 +129,20 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (!skip[static_cast<std::size_t>(k)]) write_file(dir / frames::frame_file(k), frame[static_cast<std::size_t>(k)]);
   for (const auto& [name, content] : stray) std::ofstream(dir / frames::kFramesDir / name, std::ios::binary) << content;
 
+  auto files = [&] {
+    std::size_t n = 0;
+    for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir / frames::kFramesDir)) ++n;
+    return n;
+  };
+  const std::size_t before = files();
   softcontact::fuzz::expect_accept_or_input_error([&] {
-    const std::vector<frames::FrameRecord> kept = frames::resume_frames(dir.string(), kVertices, kTets, last_step);
+    std::vector<frames::FrameRecord> kept;
+    try {
+      kept = frames::resume_frames(dir.string(), kVertices, kTets, last_step);
+    } catch (const InputError&) {
+      softcontact::fuzz::require(files() == before, "a refused directory is left as it was");
+      throw;
+    }
     // What FrameWriter relies on: frames in order, none past the checkpoint, names that
     // are safe in the XDMF; the files of the frames kept are there, later ones gone.
     for (std::size_t k = 0; k < kept.size(); ++k) {
