@@ -83,7 +83,7 @@ FrameWriter::FrameWriter(MPI_Comm comm, const std::string& h5_path, const std::s
     : comm_(comm), h5_path_(h5_path), xdmf_path_(xdmf_path), nv_(w.global_vertices), nt_(w.global_tets) {
   MPI_Comm_rank(comm_, &rank_);
   dir_ = std::filesystem::path(h5_path).parent_path().string();
-  if (dir_.empty()) dir_ = ".";
+  if (dir_.empty()) dir_.assign(1, '.');  // not = ".": GCC 12 warns falsely (-Wrestrict) here
   // Rank 0 reads the directory; an InputError there (mesh.h5 missing or another mesh)
   // becomes everyone's, a file-system failure (RuntimeFailure) ends the job.
   std::string failure;
@@ -100,7 +100,10 @@ FrameWriter::FrameWriter(MPI_Comm comm, const std::string& h5_path, const std::s
   }
   int ok = failure.empty() ? 1 : 0;
   MPI_Bcast(&ok, 1, MPI_INT, 0, comm_);
-  if (!ok) throw InputError(rank_ == 0 ? failure : "rank 0 cannot continue the output in '" + dir_ + "'");
+  if (!ok) {
+    if (rank_ != 0) failure.append("rank 0 cannot continue the output in '").append(dir_).append("'");
+    throw InputError(failure);
+  }
   std::int64_t state[2] = {count_, last_step_};
   MPI_Bcast(state, 2, MPI_INT64_T, 0, comm_);
   count_ = state[0];
