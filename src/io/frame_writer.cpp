@@ -98,10 +98,12 @@ FrameWriter::FrameWriter(MPI_Comm comm, const std::string& h5_path, const std::s
       failure = e.what();
     }
   }
-  int ok = failure.empty() ? 1 : 0;
-  MPI_Bcast(&ok, 1, MPI_INT, 0, comm_);
-  if (!ok) {
-    if (rank_ != 0) failure.append("rank 0 cannot continue the output in '").append(dir_).append("'");
+  // Length > 0: rank 0 cannot continue, and every rank throws its message.
+  long long length = static_cast<long long>(failure.size());
+  MPI_Bcast(&length, 1, MPI_LONG_LONG, 0, comm_);
+  if (length > 0) {
+    failure.resize(static_cast<std::size_t>(length));
+    MPI_Bcast(failure.data(), static_cast<int>(length), MPI_CHAR, 0, comm_);
     throw InputError(failure);
   }
   std::int64_t state[2] = {count_, last_step_};

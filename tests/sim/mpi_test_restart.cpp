@@ -235,3 +235,49 @@ TEST(Restart, RefusesABadStateOnEveryRankTogether) {
   }
   if (rank == 0) fs::remove_all(dir);
 }
+
+// Continuing a run directory whose mesh.h5 is gone is refused on every rank with one
+// InputError naming the file (exit status 2), before anything in the directory changes:
+// the frames written stay (frames::resume_frames checks the mesh before it deletes the
+// frames past the checkpoint).
+TEST(Restart, RefusesToContinueADirectoryWithoutItsMeshAndKeepsItsFrames) {
+  const int rank = comm_rank(MPI_COMM_WORLD);
+  const fs::path dir = test::scratch_dir("sc_no_mesh");
+  Scene scene = pile();
+  scene.sim.steps = 40;
+  scene.sim.checkpoint_every = 20;
+  scene.sim.output_dir = dir.string();
+  RunOptions opt;
+  opt.quiet = true;
+  opt.overwrite = true;
+  std::ostringstream log;
+  run_scene(MPI_COMM_WORLD, scene, opt, log);
+  auto frames = [&] {
+    std::size_t n = 0;
+    for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir / "frames")) ++n;
+    return n;
+  };
+  std::size_t before = 0;
+  if (rank == 0) {
+    before = frames();
+    EXPECT_EQ(before, 5u);  // steps 0, 10, 20, 30, 40
+    fs::remove(dir / "mesh.h5");
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  RestartPoint restart;
+  const Scene again = load_restart(MPI_COMM_WORLD, checkpoint_path(dir.string(), 20), restart);
+  RunOptions ropt = opt;
+  ropt.overwrite = false;
+  try {
+    run_scene(MPI_COMM_WORLD, again, ropt, log, &restart);
+    ADD_FAILURE() << "a run directory without mesh.h5 was continued";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find((dir / "mesh.h5").string()), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cannot continue the output"), std::string::npos) << e.what();
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (rank == 0) {
+    EXPECT_EQ(frames(), before) << "the refused restart deleted frames";
+    fs::remove_all(dir);
+  }
+}
