@@ -1,6 +1,7 @@
 // libFuzzer target: continuing a run's output directory (restart): the frame-resume
 // reader frames::resume_frames (src/io/frame_files.hpp), then the index and XDMF
-// rewritten from what it kept, as FrameWriter does on rank 0.
+// rewritten from what it kept, as FrameWriter does on rank 0, and diagnostics.csv cut
+// back to the checkpoint step (DiagnosticsCsv::resume).
 //
 // Structure-aware, as fuzz_checkpoint: the input edits a valid output directory of a
 // 5-vertex, 2-tet mesh with up to 6 frames (steps 0, 10, 20, ...) written by the rules
@@ -21,6 +22,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -28,6 +30,7 @@
 #include "h5_model.hpp"
 #include "io/frame_files.hpp"
 #include "io/h5_util.hpp"
+#include "softcontact/diagnostics.hpp"
 #include "softcontact/error.hpp"
 
 namespace {
@@ -123,6 +126,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
   }
 
+  // diagnostics.csv: the header and a row per step 0..60, then cut or spliced with text
+  // from the input (a torn last row, garbage, rows out of order).
+  std::string csv = std::string(DiagnosticsCsv::header()) + '\n';
+  for (int step = 0; step <= 60; step += 10) csv += std::to_string(step) + ",0.5,1,2,3,0,0,0,4,0,0,0,1e-3\n";
+  if (in.remaining_bytes() > 0) {
+    const std::size_t at = in.ConsumeIntegralInRange<std::size_t>(0, csv.size());
+    if (in.ConsumeBool()) csv.resize(at);
+    else csv.insert(at, in.ConsumeRandomLengthString(64));
+  }
+  std::ofstream(dir / "diagnostics.csv", std::ios::binary) << csv;
+
   const h5::QuietErrors quiet;
   if (!no_mesh) write_file(dir / frames::kMeshFile, mesh);
   for (int k = 0; k < nframes; ++k)
@@ -167,6 +181,28 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
     frames::write_index((dir / "frames.h5").string(), static_cast<std::int64_t>(kept.size()));
     frames::write_xdmf((dir / "frames.xdmf").string(), kept, kVertices, kTets);
+
+    // The CSV keeps its header and whole rows of steps up to the checkpoint, a prefix of
+    // the rows it had.
+    {
+      DiagnosticsCsv out;
+      out.resume((dir / "diagnostics.csv").string(), last_step);
+    }
+    std::ifstream back(dir / "diagnostics.csv", std::ios::binary);
+    const std::string cut((std::istreambuf_iterator<char>(back)), std::istreambuf_iterator<char>());
+    const std::string header = std::string(DiagnosticsCsv::header()) + '\n';
+    softcontact::fuzz::require(cut.rfind(header, 0) == 0, "the CSV starts with its header");
+    softcontact::fuzz::require(cut.back() == '\n', "the CSV ends with a whole row");
+    const std::size_t first_row = csv.find('\n');
+    softcontact::fuzz::require(first_row != std::string::npos
+                                   ? csv.compare(first_row + 1, cut.size() - header.size(), cut, header.size()) == 0
+                                   : cut == header,
+                               "the CSV rows kept are the first rows it had");
+    for (std::size_t at = header.size(); at < cut.size();) {
+      const std::size_t end = cut.find('\n', at);
+      softcontact::fuzz::require(std::strtoll(cut.c_str() + at, nullptr, 10) <= last_step, "CSV rows up to the checkpoint");
+      at = end + 1;
+    }
   });
   return 0;
 }
