@@ -8,8 +8,10 @@
 # Usage: bash tools/fuzz.sh [--replay] [--seconds N] [--target NAME]
 #   --replay      only replay the corpus (no fuzzing)
 #   --seconds N   fuzz each target for N seconds (default 30)
-#   --target NAME only this target: scene, gmsh or tetgen (default: all)
+#   --target NAME only this target: scene, gmsh, tetgen, checkpoint or frames (default: all)
 # Environment: FUZZ_BUILD_DIR (default build-fuzz), JOBS.
+# Needs clang with libFuzzer, ASan/UBSan and OpenMP: 'bash tools/setup.sh --sanitizers'
+# installs them; without them this script says so and exits with status 2.
 #
 # New inputs the fuzzer finds go to build-fuzz/fuzz-work/<target>, not into the committed
 # corpus. To add them, minimised (the corpus should stay small):
@@ -19,7 +21,7 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${FUZZ_BUILD_DIR:-$root/build-fuzz}
 jobs=${JOBS:-$(OMP_NUM_THREADS= nproc)}
-all_targets=(scene gmsh tetgen)
+all_targets=(scene gmsh tetgen checkpoint frames)
 
 replay_only=0 seconds=30 targets=("${all_targets[@]}")
 while [ $# -gt 0 ]; do
@@ -31,7 +33,7 @@ while [ $# -gt 0 ]; do
     --target) [ $# -ge 2 ] || { echo "fuzz.sh: --target expects one of: ${all_targets[*]}" >&2; exit 2; }
               targets=("$2"); shift ;;
     --target=*) targets=("${1#*=}") ;;
-    -h|--help) sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "fuzz.sh: unknown option '$1' (expected --replay, --seconds N, --target NAME)" >&2; exit 2 ;;
   esac
   shift
@@ -41,10 +43,22 @@ for t in "${targets[@]}"; do
   [[ " ${all_targets[*]} " == *" $t "* ]] || { echo "fuzz.sh: unknown target '$t' (expected one of: ${all_targets[*]})" >&2; exit 2; }
 done
 
-# clang with libFuzzer and the sanitizer runtimes, and clang's OpenMP runtime.
-packages=(clang libclang-rt-14-dev libomp-14-dev)
-source "$root/tools/packages.sh"
-install_missing "fuzz.sh" "${packages[@]}"
+# The toolchain (clang with libFuzzer and the sanitizer runtimes, clang's OpenMP) is
+# installed by 'bash tools/setup.sh --sanitizers', never here: a test installs nothing.
+# One small program built as the harnesses are tells whether it is all there.
+probe=$(mktemp -d)
+trap 'rm -rf "$probe"' EXIT
+printf '%s\n' '#include <omp.h>' '#include <cstddef>' '#include <cstdint>' \
+  'extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t*, std::size_t) { return omp_get_max_threads() > 0 ? 0 : 1; }' \
+  >"$probe/probe.cpp"
+if ! command -v clang++ >/dev/null ||
+   ! clang++ -fsanitize=fuzzer,address,undefined -fopenmp "$probe/probe.cpp" -o "$probe/probe" >"$probe/log" 2>&1; then
+  echo "fuzz.sh: the fuzzing toolchain is missing: clang++ with libFuzzer, ASan/UBSan and OpenMP" >&2
+  echo "  (Debian packages clang, libclang-rt-14-dev, libomp-14-dev)." >&2
+  echo "  Install it with:  bash tools/setup.sh --sanitizers" >&2
+  if command -v clang++ >/dev/null; then sed 's/^/  clang++: /' "$probe/log" | head -5 >&2; fi
+  exit 2
+fi
 
 # The whole library instrumented for coverage (fuzzer-no-link) and checked by ASan and
 # UBSan; only the harnesses link libFuzzer's main (tests/fuzz/CMakeLists.txt).

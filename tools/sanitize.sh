@@ -19,11 +19,12 @@ build=${ASAN_BUILD_DIR:-$root/build-asan}
 jobs=${JOBS:-$(OMP_NUM_THREADS= nproc)}
 [ $# -eq 0 ] && set -- -L 'unit|mpi|cli' -E '^cli[.]reliability$'
 
-# The same Debian packages as tools/setup.sh (g++ brings the sanitizer runtimes).
+# The same Debian packages as tools/setup.sh (g++ brings the sanitizer runtimes), which
+# installs them: a test installs nothing.
 packages=(g++ make cmake pkg-config libopenmpi-dev openmpi-bin petsc-dev libmetis-dev libhdf5-openmpi-dev
           libeigen3-dev libyaml-cpp-dev libgtest-dev)
 source "$root/tools/packages.sh"
-install_missing "sanitize.sh" "${packages[@]}"
+require_installed "sanitize.sh" "bash tools/setup.sh --sanitizers" "${packages[@]}"
 
 # The sanitizer options hold while the build runs too: gtest_discover_tests runs the
 # test executables to list their tests.

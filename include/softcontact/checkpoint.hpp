@@ -67,7 +67,10 @@ void write_checkpoint(MPI_Comm comm, const std::string& path, Simulator& sim, Ch
 CheckpointInfo read_checkpoint_info(MPI_Comm comm, const std::string& path);
 
 /// Installs the checkpoint's state (positions, previous positions, velocities, anchors,
-/// step) into a simulator built from the same scene (any partition). Collective.
+/// step) into a simulator built from the same scene (any partition). A dataset missing or
+/// of another shape, a value that is not finite or an anchor outside its object is an
+/// InputError naming the file (and the first such vertex), thrown on every rank together.
+/// Collective.
 void read_checkpoint_state(MPI_Comm comm, const std::string& path, const CheckpointInfo& info, Simulator& sim);
 
 /// `path` itself when it is a file; for a directory (a run's output directory or its

@@ -19,12 +19,23 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "softcontact/scene.hpp"
 #include "softcontact/world.hpp"
 
 namespace softcontact {
+
+namespace frames {
+/// What the index and the XDMF say about one frame file (src/io/frame_files.hpp).
+struct FrameRecord {
+  std::int64_t step = -1;
+  double time = 0;
+  std::vector<std::pair<std::string, int>> fields;  ///< (xdmf name, components), besides positions
+  std::vector<std::string> datasets;                 ///< the dataset of each field
+};
+}  // namespace frames
 
 /// A per-vertex field of a frame: `components` values per owned vertex (local order).
 struct VertexField {
@@ -42,8 +53,8 @@ public:
               const World& world);
 
   /// Continues the frames of an earlier run in the same place (restart): keeps the frames
-  /// up to step `last_step` and deletes later or damaged ones. Throws RuntimeFailure when
-  /// mesh.h5 is missing or does not match the world. Collective.
+  /// up to step `last_step` and deletes later or damaged ones (frames::resume_frames).
+  /// Throws InputError when mesh.h5 is missing or does not match the world. Collective.
   FrameWriter(MPI_Comm comm, const std::string& h5_path, const std::string& xdmf_path, const World& world,
               std::int64_t last_step);
   FrameWriter(const FrameWriter&) = delete;
@@ -61,15 +72,8 @@ public:
   void close() {}
 
 private:
-  struct FrameInfo {
-    std::int64_t step;
-    double time;
-    std::vector<std::pair<std::string, int>> fields;  // (xdmf name / dataset, components)
-    std::vector<std::string> datasets;
-  };
   void write_index() const;
   void write_xdmf() const;
-  std::string frame_file(std::int64_t k) const;  // relative to the output directory
 
   MPI_Comm comm_;
   int rank_ = 0;
@@ -77,7 +81,7 @@ private:
   std::int64_t count_ = 0, last_step_ = -1;
   gid_t nv_ = 0, nt_ = 0;
   std::vector<GidRun> vertex_runs_;
-  std::vector<FrameInfo> frames_;  // rank 0
+  std::vector<frames::FrameRecord> frames_;  // rank 0
 };
 
 }  // namespace softcontact

@@ -4,7 +4,9 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 
+#include "checkpoint_read.hpp"
 #include "h5_util.hpp"
 #include "softcontact/error.hpp"
 #include "softcontact/fault.hpp"
@@ -16,32 +18,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr std::int64_t kFormat = 2;  // 2: two friction anchors per vertex (one per other body)
+using checkpoint::kFormat;
 constexpr const char* kDir = "checkpoints";
 constexpr const char* kPrefix = "checkpoint_";
-
-// FNV-1a, 64 bit, over raw bytes: the scene's data in a fixed order.
-class Fingerprint {
-public:
-  void bytes(const void* p, std::size_t n) {
-    const auto* b = static_cast<const unsigned char*>(p);
-    for (std::size_t i = 0; i < n; ++i) {
-      h_ ^= b[i];
-      h_ *= 1099511628211ull;
-    }
-  }
-  template <class T>
-  void value(const T& v) { bytes(&v, sizeof v); }
-  template <class T>
-  void vector(const std::vector<T>& v) {
-    value(v.size());
-    if (!v.empty()) bytes(v.data(), v.size() * sizeof(T));
-  }
-  std::uint64_t get() const { return h_; }
-
-private:
-  std::uint64_t h_ = 14695981039346656037ull;
-};
 
 // The per-vertex state as written: one array per field, packed in owned-run order
 // (which is local order: owned vertices are stored by ascending global id per object).
@@ -51,49 +30,7 @@ struct Rows {
   std::vector<double> anchor_bary;
 };
 
-[[noreturn]] void not_a_checkpoint(const std::string& path, const std::string& why) {
-  throw InputError(path, 0, "not a readable softcontact checkpoint: " + why);
-}
-
 }  // namespace
-
-std::uint64_t scene_fingerprint(const Scene& scene) {
-  Fingerprint f;
-  const Simulation& s = scene.sim;
-  f.value(s.dt);
-  f.value(s.gravity);
-  f.value(s.integrator);
-  f.value(s.self_collisions);
-  f.value(scene.materials.size());
-  for (const Material& m : scene.materials) {
-    f.value(m.model);
-    for (double x : {m.young, m.poisson, m.density, m.damping_mass, m.damping_stiffness}) f.value(x);
-  }
-  f.value(scene.default_friction.mu_static);
-  f.value(scene.default_friction.mu_kinetic);
-  for (const auto& row : scene.friction)
-    for (const Friction& fr : row) {
-      f.value(fr.mu_static);
-      f.value(fr.mu_kinetic);
-    }
-  f.value(scene.objects.size());
-  for (const SceneObject& o : scene.objects) {
-    f.value(o.material);
-    f.value(o.kinematic);
-    f.value(o.velocity);
-    f.vector(o.mesh.points);
-    f.vector(o.mesh.tets);
-    f.value(o.fixed.size());
-    for (const AxisBox& b : o.fixed) {
-      f.value(b.min);
-      f.value(b.max);
-    }
-    f.value(o.motion.velocity);
-    f.value(o.motion.start);
-    f.value(o.motion.stop);
-  }
-  return f.get();
-}
 
 std::string checkpoint_path(const std::string& output_dir, std::int64_t step) {
   char name[64];
@@ -254,64 +191,6 @@ private:
   std::size_t at_ = 0;
 };
 
-CheckpointInfo read_info_serial(const std::string& path) {
-  const h5::QuietErrors quiet;
-  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-  if (file < 0) not_a_checkpoint(path, "HDF5 cannot open it (damaged, truncated, or not HDF5)");
-  CheckpointInfo info;
-  try {
-    const hid_t run = H5Gopen2(file, "/run", H5P_DEFAULT);
-    if (run < 0) throw RuntimeFailure(path + ": group /run is missing");
-    try {
-      info.format = h5::read_attribute<std::int64_t>(run, "format", path);
-      if (info.format != kFormat)
-        throw RuntimeFailure(path + ": checkpoint format " + std::to_string(info.format) + ", this build reads format " +
-                             std::to_string(kFormat));
-      info.step = h5::read_attribute<std::int64_t>(run, "step", path);
-      info.time = h5::read_attribute<double>(run, "time", path);
-      info.dt = h5::read_attribute<double>(run, "dt", path);
-      info.steps = h5::read_attribute<std::int64_t>(run, "steps", path);
-      info.output_every = h5::read_attribute<std::int64_t>(run, "output_every", path);
-      info.frames = h5::read_attribute<std::int64_t>(run, "frames", path);
-      info.ranks = h5::read_attribute<std::int64_t>(run, "ranks", path);
-      info.anchor_step = h5::read_attribute<std::int64_t>(run, "anchor_step", path);
-      info.vertices = h5::read_attribute<std::int64_t>(run, "vertices", path);
-      info.fingerprint = static_cast<std::uint64_t>(h5::read_attribute<std::int64_t>(run, "fingerprint", path));
-      info.energy0 = h5::read_attribute<double>(run, "energy0", path);
-      info.energy_scale = h5::read_attribute<double>(run, "energy_scale", path);
-      info.scene_path = h5::read_string_attribute(run, "scene_path", path);
-      info.output_dir = h5::read_string_attribute(run, "output_dir", path);
-      if (info.step < 0 || info.steps < 1 || info.output_every < 1 || info.frames < 0 || info.vertices < 0 ||
-          !(info.dt > 0))
-        throw RuntimeFailure(path + ": its run description is out of range");
-      const auto n = static_cast<hsize_t>(h5::rows_of(run, "partition"));
-      std::vector<std::int32_t> part(n);
-      std::vector<double> boxes(6 * n);
-      h5::read_rows(run, "partition", static_cast<gid_t>(n), 1, h5::all_rows(static_cast<gid_t>(n)), part.data(), path, false);
-      h5::read_rows(run, "boxes", static_cast<gid_t>(n), 6, h5::all_rows(static_cast<gid_t>(n)), boxes.data(), path, false);
-      info.partition.assign(part.begin(), part.end());
-      for (hsize_t k = 0; k < n; ++k)
-        info.boxes.push_back(ObjectBox{{boxes[6 * k], boxes[6 * k + 1], boxes[6 * k + 2]},
-                                       {boxes[6 * k + 3], boxes[6 * k + 4], boxes[6 * k + 5]}});
-      const auto chars = static_cast<hsize_t>(h5::rows_of(run, "scene"));
-      info.scene_text.assign(chars, '\0');
-      h5::read_rows(run, "scene", static_cast<gid_t>(chars), 1, h5::all_rows(static_cast<gid_t>(chars)),
-                    info.scene_text.data(), path, false);
-    } catch (...) {
-      H5Gclose(run);
-      throw;
-    }
-    H5Gclose(run);
-  } catch (const RuntimeFailure& e) {
-    H5Fclose(file);
-    std::string why = e.what();
-    if (why.rfind(path + ": ", 0) == 0) why = why.substr(path.size() + 2);
-    not_a_checkpoint(path, why);
-  }
-  H5Fclose(file);
-  return info;
-}
-
 }  // namespace
 
 CheckpointInfo read_checkpoint_info(MPI_Comm comm, const std::string& path) {
@@ -321,7 +200,7 @@ CheckpointInfo read_checkpoint_info(MPI_Comm comm, const std::string& path) {
   std::string error;
   if (rank == 0) {
     try {
-      const CheckpointInfo i = read_info_serial(path);
+      const CheckpointInfo i = checkpoint::read_run_file(path);
       for (std::int64_t v : {i.format, i.step, i.steps, i.output_every, i.frames, i.ranks, i.anchor_step, i.vertices})
         pack(buf, v);
       pack(buf, i.time);
@@ -379,43 +258,35 @@ void read_checkpoint_state(MPI_Comm comm, const std::string& path, const Checkpo
   const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl);
   H5Pclose(fapl);
   if (file < 0) throw RuntimeFailure("cannot open the checkpoint '" + path + "'");
-  const std::vector<GidRun> runs = owned_vertex_runs(w);
-  const gid_t nv = w.global_vertices;
   const std::size_t n = w.n_owned;
-  Rows r;
-  constexpr std::size_t na = StictionAnchor::kPerPoint;
-  r.anchor_step.resize(na * n);
-  r.anchor_object.resize(na * n);
-  r.anchor_tri.resize(3 * na * n);
-  r.anchor_bary.resize(3 * na * n);
+  checkpoint::StateRows r;
   try {
-    h5::read_rows(file, "/state/x", nv, 3, runs, w.x.data(), path);
-    h5::read_rows(file, "/state/x_prev", nv, 3, runs, w.x_prev.data(), path);
-    h5::read_rows(file, "/state/v", nv, 3, runs, w.v.data(), path);
-    h5::read_rows(file, "/state/anchor_step", nv, na, runs, r.anchor_step.data(), path);
-    h5::read_rows(file, "/state/anchor_object", nv, na, runs, r.anchor_object.data(), path);
-    h5::read_rows(file, "/state/anchor_triangle", nv, 3 * na, runs, r.anchor_tri.data(), path);
-    h5::read_rows(file, "/state/anchor_bary", nv, 3 * na, runs, r.anchor_bary.data(), path);
+    // Every rank reads the same datasets' shapes: a problem there is everyone's.
+    checkpoint::read_state(file, path, w.global_vertices, owned_vertex_runs(w), n, r, true);
   } catch (...) {
     H5Fclose(file);
     throw;
   }
   H5Fclose(file);
-  const auto nobj = static_cast<std::int32_t>(w.layout.size());
-  for (std::size_t i = 0; i < na * n; ++i) {
-    bool ok = r.anchor_object[i] >= -1 && r.anchor_object[i] < nobj;
-    for (std::size_t c = 0; c < 3; ++c) ok = ok && r.anchor_tri[3 * i + c] >= -1 && r.anchor_tri[3 * i + c] < nv;
-    if (!ok)
-      throw RuntimeFailure(path + ": the friction anchor of vertex " + std::to_string(w.vertex_gid[i / na]) +
-                           " names an object or vertex that does not exist");
-  }
+  // Values are checked per rank; the first problem by vertex id is everyone's, so every
+  // rank throws the same InputError together (none is left waiting in a collective).
+  const std::vector<gid_t> gid(w.vertex_gid.begin(), w.vertex_gid.begin() + static_cast<std::ptrdiff_t>(n));
+  std::int64_t mine = checkpoint::first_state_problem(r, gid, w.layout);
+  if (mine < 0) mine = std::numeric_limits<std::int64_t>::max();
+  std::int64_t first = mine;
+  MPI_Allreduce(&mine, &first, 1, MPI_INT64_T, MPI_MIN, comm);
+  if (first != std::numeric_limits<std::int64_t>::max()) throw InputError(path, 0, checkpoint::state_problem(first));
+  std::copy(r.x.begin(), r.x.end(), w.x.begin());
+  std::copy(r.x_prev.begin(), r.x_prev.end(), w.x_prev.begin());
+  std::copy(r.v.begin(), r.v.end(), w.v.begin());
+  constexpr std::size_t na = StictionAnchor::kPerPoint;
   std::vector<StictionAnchor>& anchors = sim.anchors();
   for (std::size_t i = 0; i < na * n; ++i) {
     AnchorEntry& a = anchors[i / na].entry[i % na];
     a.step = r.anchor_step[i];
     a.object = r.anchor_object[i];
     for (std::size_t c = 0; c < 3; ++c) {
-      a.tri[c] = r.anchor_tri[3 * i + c];
+      a.tri[c] = r.anchor_triangle[3 * i + c];
       a.bary[c] = r.anchor_bary[3 * i + c];
     }
   }

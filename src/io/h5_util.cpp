@@ -153,12 +153,23 @@ void write_string_attribute(hid_t loc, const char* name, const std::string& valu
   check(status, std::string("write attribute ") + name);
 }
 
+namespace {
+// One value: H5Aread fills as many as the attribute's dataspace holds.
+bool holds_one_value(hid_t attr) {
+  const hid_t space = H5Aget_space(attr);
+  if (space < 0) return false;
+  const bool one = H5Sget_simple_extent_npoints(space) == 1;
+  H5Sclose(space);
+  return one;
+}
+}  // namespace
+
 template <class T>
 T read_attribute(hid_t loc, const char* name, const std::string& file) {
   T value{};
   if (H5Aexists(loc, name) <= 0) throw RuntimeFailure(file + ": attribute '" + name + "' is missing");
   const hid_t attr = H5Aopen(loc, name, H5P_DEFAULT);
-  const herr_t status = attr < 0 ? -1 : H5Aread(attr, type_of<T>(), &value);
+  const herr_t status = attr < 0 || !holds_one_value(attr) ? -1 : H5Aread(attr, type_of<T>(), &value);
   if (attr >= 0) H5Aclose(attr);
   if (status < 0) throw RuntimeFailure(file + ": cannot read attribute '" + name + "'");
   return value;
@@ -174,7 +185,8 @@ std::string read_string_attribute(hid_t loc, const char* name, const std::string
   const hid_t type = attr < 0 ? -1 : H5Aget_type(attr);
   std::string value;
   herr_t status = -1;
-  if (type >= 0 && H5Tget_class(type) == H5T_STRING && !H5Tis_variable_str(type)) {
+  if (type >= 0 && H5Tget_class(type) == H5T_STRING && H5Tis_variable_str(type) == 0 && holds_one_value(attr) &&
+      H5Tget_size(type) <= kMaxTextAttribute) {
     value.assign(H5Tget_size(type), '\0');
     status = H5Aread(attr, type, value.data());
     value.resize(value.find('\0') == std::string::npos ? value.size() : value.find('\0'));

@@ -5,6 +5,7 @@
 #include <hdf5.h>
 #include <mpi.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -53,9 +54,14 @@ inline std::vector<GidRun> all_rows(gid_t rows) { return rows > 0 ? std::vector<
 template <class T>
 void write_attribute(hid_t loc, const char* name, const T& value);
 void write_string_attribute(hid_t loc, const char* name, const std::string& value);
-/// Reads a scalar attribute; throws RuntimeFailure naming `file` when it is missing.
+/// Reads a scalar attribute (one value, converted to T); throws RuntimeFailure naming
+/// `file` when it is missing, holds more or fewer values or does not convert.
 template <class T>
 T read_attribute(hid_t loc, const char* name, const std::string& file);
+/// The longest text attribute read_string_attribute accepts [bytes].
+inline constexpr std::size_t kMaxTextAttribute = std::size_t{1} << 24;
+/// Reads a scalar fixed-length text attribute (write_string_attribute), up to its first
+/// NUL; throws RuntimeFailure as read_attribute, and for any other type or a longer one.
 std::string read_string_attribute(hid_t loc, const char* name, const std::string& file);
 
 /// File access with the MPI-IO driver on `comm`.

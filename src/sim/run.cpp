@@ -16,6 +16,7 @@
 #include <memory>
 #include <sstream>
 
+#include "../io/checkpoint_read.hpp"
 #include "softcontact/checkpoint.hpp"
 #include "softcontact/diagnostics.hpp"
 #include "softcontact/error.hpp"
@@ -199,11 +200,7 @@ Scene load_restart(MPI_Comm comm, const std::string& path, RestartPoint& restart
   restart.info = read_checkpoint_info(comm, restart.path);
   const CheckpointInfo& info = restart.info;
   Scene scene = load_scene_from_string(info.scene_text, info.scene_path);
-  if (scene_fingerprint(scene) != info.fingerprint)
-    throw InputError(restart.path, 0,
-                     "the scene it continues ('" + info.scene_path +
-                         "', as stored in the checkpoint) now reads differently: a mesh file it uses has changed or "
-                         "moved since the checkpoint was written, so the run cannot continue bitwise");
+  checkpoint::check_against_scene(info, scene, restart.path);
   Simulation& sim = scene.sim;
   sim.steps = info.steps;
   sim.end_time.reset();

@@ -11,11 +11,20 @@
 
 namespace softcontact::fuzz {
 
+/// With SOFTCONTACT_FUZZ_VERBOSE set, each input's outcome is printed ("accepted" or the
+/// InputError's message): to see what a corpus file exercises.
+inline bool verbose() {
+  static const bool on = std::getenv("SOFTCONTACT_FUZZ_VERBOSE") != nullptr;
+  return on;
+}
+
 template <class F>
 void expect_accept_or_input_error(F&& f) {
   try {
     f();
+    if (verbose()) std::fprintf(stderr, "fuzz: accepted\n");
   } catch (const InputError& e) {
+    if (verbose()) std::fprintf(stderr, "fuzz: InputError: %s\n", e.what());
     if (e.detail().empty()) {
       std::fprintf(stderr, "fuzz: InputError without a message: '%s'\n", e.what());
       std::abort();

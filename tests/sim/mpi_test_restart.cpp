@@ -3,10 +3,12 @@
 // rank count that wrote the checkpoint or on another one. Runs under mpiexec with 1 to 4
 // ranks; the uninterrupted reference runs on rank 0 alone.
 #include <gtest/gtest.h>
+#include <hdf5.h>
 #include <mpi.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -220,4 +222,125 @@ TEST(Restart, RefusesADamagedCheckpointWithAClearMessage) {
   }
   MPI_Barrier(MPI_COMM_WORLD);
   if (rank == 0) fs::remove_all(dir);
+}
+
+namespace {
+// Overwrites element (row, col) of dataset `name` of an (rows, cols) checkpoint dataset.
+template <class T>
+void poke(const fs::path& file, const char* name, hsize_t row, hsize_t col, T value, hid_t type) {
+  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  ASSERT_GE(f, 0) << file;
+  const hid_t d = H5Dopen2(f, name, H5P_DEFAULT);
+  const hid_t space = H5Dget_space(d);
+  const hsize_t start[2] = {row, col}, count[2] = {1, 1}, one[1] = {1};
+  H5Sselect_hyperslab(space, H5S_SELECT_SET, start, nullptr, count, nullptr);
+  const hid_t mem = H5Screate_simple(1, one, nullptr);
+  EXPECT_GE(H5Dwrite(d, type, mem, space, H5P_DEFAULT, &value), 0) << name;
+  H5Sclose(mem);
+  H5Sclose(space);
+  H5Dclose(d);
+  H5Fclose(f);
+}
+}  // namespace
+
+// A checkpoint whose per-vertex state is bad (a NaN position, a friction anchor naming
+// an object that does not exist) is refused with an InputError naming the file and the
+// vertex (exit status 2), not run into a numerical failure or out of bounds. The bad
+// vertex is the last one, owned by the last rank: every rank must refuse together (a
+// rank that went on would wait forever in the first collective call).
+TEST(Restart, RefusesABadStateOnEveryRankTogether) {
+  const int rank = comm_rank(MPI_COMM_WORLD);
+  const fs::path dir = test::scratch_dir("sc_bad_state");
+  Scene scene = pile();
+  scene.sim.steps = 20;
+  scene.sim.checkpoint_every = 20;
+  scene.sim.output_dir = (dir / "run").string();
+  RunOptions opt;
+  opt.quiet = true;
+  opt.overwrite = true;
+  std::ostringstream log;
+  run_scene(MPI_COMM_WORLD, scene, opt, log);
+  const fs::path ckpt = checkpoint_path((dir / "run").string(), 20);
+  struct Case {
+    const char* dataset;
+    const char* expected;
+  };
+  for (const Case& c : {Case{"/state/x", "has a position (/state/x) that is not finite"},
+                        Case{"/state/anchor_object", "has a friction anchor naming an object that does not exist"}}) {
+    const fs::path bad = dir / "bad.h5";
+    if (rank == 0) {
+      fs::copy_file(ckpt, bad, fs::copy_options::overwrite_existing);
+      std::int64_t nv = 0;
+      {
+        RestartPoint r;
+        load_restart(MPI_COMM_SELF, bad.string(), r);
+        nv = r.info.vertices;
+      }
+      if (std::string(c.dataset) == "/state/x") poke(bad, c.dataset, nv - 1, 2, std::nan(""), H5T_NATIVE_DOUBLE);
+      else poke(bad, c.dataset, nv - 1, 0, std::int32_t{99}, H5T_NATIVE_INT32);
+    }
+    MPI_Barrier(MPI_COMM_WORLD);
+    RestartPoint restart;
+    const Scene again = load_restart(MPI_COMM_WORLD, bad.string(), restart);
+    const std::string want = "vertex " + std::to_string(restart.info.vertices - 1) + " " + c.expected;
+    RunOptions ropt = opt;
+    ropt.overwrite = true;
+    Scene elsewhere = again;
+    elsewhere.sim.output_dir = (dir / "cont").string();
+    try {
+      run_scene(MPI_COMM_WORLD, elsewhere, ropt, log, &restart);
+      ADD_FAILURE() << "a checkpoint with a bad " << c.dataset << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("bad.h5"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(want), std::string::npos) << e.what();
+    }
+    MPI_Barrier(MPI_COMM_WORLD);
+  }
+  if (rank == 0) fs::remove_all(dir);
+}
+
+// Continuing a run directory whose mesh.h5 is gone is refused on every rank with one
+// InputError naming the file (exit status 2), before anything in the directory changes:
+// the frames written stay (frames::resume_frames checks the mesh before it deletes the
+// frames past the checkpoint).
+TEST(Restart, RefusesToContinueADirectoryWithoutItsMeshAndKeepsItsFrames) {
+  const int rank = comm_rank(MPI_COMM_WORLD);
+  const fs::path dir = test::scratch_dir("sc_no_mesh");
+  Scene scene = pile();
+  scene.sim.steps = 40;
+  scene.sim.checkpoint_every = 20;
+  scene.sim.output_dir = dir.string();
+  RunOptions opt;
+  opt.quiet = true;
+  opt.overwrite = true;
+  std::ostringstream log;
+  run_scene(MPI_COMM_WORLD, scene, opt, log);
+  auto frames = [&] {
+    std::size_t n = 0;
+    for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir / "frames")) ++n;
+    return n;
+  };
+  std::size_t before = 0;
+  if (rank == 0) {
+    before = frames();
+    EXPECT_EQ(before, 5u);  // steps 0, 10, 20, 30, 40
+    fs::remove(dir / "mesh.h5");
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  RestartPoint restart;
+  const Scene again = load_restart(MPI_COMM_WORLD, checkpoint_path(dir.string(), 20), restart);
+  RunOptions ropt = opt;
+  ropt.overwrite = false;
+  try {
+    run_scene(MPI_COMM_WORLD, again, ropt, log, &restart);
+    ADD_FAILURE() << "a run directory without mesh.h5 was continued";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find((dir / "mesh.h5").string()), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("cannot continue the output"), std::string::npos) << e.what();
+  }
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (rank == 0) {
+    EXPECT_EQ(frames(), before) << "the refused restart deleted frames";
+    fs::remove_all(dir);
+  }
 }
