@@ -34,6 +34,15 @@ struct ElasticMeasures {
 /// stable for dt <= 2 / max_T omega_T (Irons' element eigenvalue theorem; docs/models.md).
 double tet_max_frequency(const double X[12], const Material& m);
 
+/// Largest step [s] for which position Verlet and symplectic Euler are stable on a mode of
+/// angular frequency omega [rad/s] under the explicit Rayleigh damping -alpha m v - beta K v
+/// (alpha [1/s], beta [s]): dt^2 omega^2 + 2 dt (alpha + beta omega^2) <= 4, i.e.
+/// dt <= 4 / (c + sqrt(c^2 + 4 omega^2)) = (2 / omega)(sqrt(1 + xi^2) - xi) with
+/// c = alpha + beta omega^2 = 2 xi omega (derivation in src/model/stability.cpp). 2 / omega
+/// without damping, 2 / alpha for omega = 0, +inf when all three are 0. Decreasing in omega,
+/// so the bound at max_T omega_T holds for every mode (docs/models.md).
+double damped_stable_step(double omega, double alpha, double beta);
+
 /// Which stiffness K = -df/dx an element reports.
 enum class StiffnessKind {
   implicit,  ///< what implicit Euler solves with: linear exact, corotational warped R K0 R^T (SPD)
