@@ -30,8 +30,9 @@ struct ElasticMeasures {
 /// Highest angular frequency [rad/s] of one tet at rest with its own lumped mass (a quarter
 /// of rho V on each corner): omega_T = sqrt(lambda_max(K_T) / (rho V / 4)), K_T the rest
 /// stiffness of the material's model (Hooke's law for the FEM models, the springs for
-/// mass_spring). X: rest corners (4,3) [m]. Position Verlet and symplectic Euler are
-/// stable for dt <= 2 / max_T omega_T (Irons' element eigenvalue theorem; docs/models.md).
+/// mass_spring). X: rest corners (4,3) [m]. Without damping, position Verlet and
+/// symplectic Euler are stable for dt <= 2 / max_T omega_T (Irons' element eigenvalue
+/// theorem; docs/models.md); with damping see damped_stable_step.
 double tet_max_frequency(const double X[12], const Material& m);
 
 /// Largest step [s] for which position Verlet and symplectic Euler are stable on a mode of

@@ -327,3 +327,24 @@ objects:
   EXPECT_TRUE(slab("1.0e-6", beta).warnings.empty());
   EXPECT_TRUE(slab("2.0e-6", "").warnings.empty());
 }
+
+// A stiffness damping so large that beta omega^2 overflows leaves no stable explicit step:
+// with 'dt: auto' that is an input error naming the object and its damping, not dt = 0.
+TEST(DampedStability, OverflowingDampingIsAnInputErrorUnderAutoStep) {
+  try {
+    load_scene_from_string(R"(simulation: {dt: auto, steps: 10}
+materials:
+  - {name: light, model: corotational, young: 1.0e7, poisson: 0.3, density: 10, damping: {stiffness: 1.0e300}}
+objects:
+  - name: slab
+    material: light
+    primitive: {type: box, size: [0.3, 0.3, 0.03], cells: [6, 6, 1]}
+)",
+                           "slab.yaml");
+    FAIL() << "expected an InputError";
+  } catch (const InputError& e) {
+    const std::string m = e.what();
+    for (const char* part : {"slab.yaml:", "object 'slab'", "stiffness 1e+300 s", "no explicit time step is stable"})
+      EXPECT_NE(m.find(part), std::string::npos) << m << "\nmissing: " << part;
+  }
+}
