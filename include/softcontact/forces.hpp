@@ -30,9 +30,19 @@ struct ElasticMeasures {
 /// Highest angular frequency [rad/s] of one tet at rest with its own lumped mass (a quarter
 /// of rho V on each corner): omega_T = sqrt(lambda_max(K_T) / (rho V / 4)), K_T the rest
 /// stiffness of the material's model (Hooke's law for the FEM models, the springs for
-/// mass_spring). X: rest corners (4,3) [m]. Position Verlet and symplectic Euler are
-/// stable for dt <= 2 / max_T omega_T (Irons' element eigenvalue theorem; docs/models.md).
+/// mass_spring). X: rest corners (4,3) [m]. Without damping, position Verlet and
+/// symplectic Euler are stable for dt <= 2 / max_T omega_T (Irons' element eigenvalue
+/// theorem; docs/models.md); with damping see damped_stable_step.
 double tet_max_frequency(const double X[12], const Material& m);
+
+/// Largest step [s] for which position Verlet and symplectic Euler are stable on a mode of
+/// angular frequency omega [rad/s] under the explicit Rayleigh damping -alpha m v - beta K v
+/// (alpha [1/s], beta [s]): dt^2 omega^2 + 2 dt (alpha + beta omega^2) <= 4, i.e.
+/// dt <= 4 / (c + sqrt(c^2 + 4 omega^2)) = (2 / omega)(sqrt(1 + xi^2) - xi) with
+/// c = alpha + beta omega^2 = 2 xi omega (derivation in src/model/stability.cpp). 2 / omega
+/// without damping, 2 / alpha for omega = 0, +inf when all three are 0. Decreasing in omega,
+/// so the bound at max_T omega_T holds for every mode (docs/models.md).
+double damped_stable_step(double omega, double alpha, double beta);
 
 /// Which stiffness K = -df/dx an element reports.
 enum class StiffnessKind {

@@ -9,7 +9,8 @@
 //  implicit Euler       implicit_euler.hpp (ImplicitEuler::step): a linear solve per
 //                       object; unconstrained_step does not handle it.
 // After the step x_prev holds x^t and x holds x~. Both explicit schemes are stable for
-// dt below the limit that `dt: auto` uses (stable_time_step, docs/models.md).
+// dt below the limit that `dt: auto` uses (stable_step, docs/models.md), which includes
+// the Rayleigh damping: the damping forces are explicit, at v^t.
 //
 // Velocities: Verlet's v is the backward difference (x~ - x^t) / dt, a first-order
 // estimate of v at the middle of the step; the damping forces of the next step use it.

@@ -133,12 +133,32 @@ Scene load_scene(const std::string& path, const SceneLimits& limits = {});
 /// Same, from YAML text; `path` names it in messages and anchors relative mesh paths.
 Scene load_scene_from_string(const std::string& yaml, const std::string& path, const SceneLimits& limits = {});
 
+/// The explicit stability limit of a scene and the object that sets it.
+struct StableStep {
+  double dt = std::numeric_limits<double>::infinity();  ///< [s]; +inf when nothing can move
+  int object = -1;            ///< scene object whose limit it is (-1: none)
+  double omega = 0;           ///< that object's highest tet frequency [rad/s]
+  double alpha = 0, beta = 0; ///< its material's Rayleigh damping: mass [1/s], stiffness [s]
+
+  bool damped() const { return alpha > 0 || beta > 0; }
+  /// Damping ratio of the mode omega: alpha / (2 omega) + beta omega / 2.
+  double damping_ratio() const { return alpha / (2 * omega) + beta * omega / 2; }
+  /// What it is, for messages: "2 / the highest element frequency" and, with damping, the
+  /// object, frequency, damping and damping ratio (docs/models.md).
+  std::string explain(const Scene& scene) const;
+};
+
 /// Largest time step for which the explicit integrators are guaranteed stable on the
-/// movable objects, linearised about their rest state: 2 / max over tets of omega_T, the
-/// highest frequency of the tet alone with a quarter of its mass on each corner
-/// (tet_max_frequency in forces.hpp; Irons' element eigenvalue theorem). Takes each
-/// object's model into account (mass-spring has its own stiffness). Not multiplied by the
-/// safety factor. Returns +inf when nothing can move.
+/// movable objects, linearised about their rest state. Per object: omega = max over its
+/// tets of omega_T, the highest frequency of the tet alone with a quarter of its mass on
+/// each corner (tet_max_frequency in forces.hpp; Irons' element eigenvalue theorem), for
+/// its model (mass-spring has its own stiffness), and the damped bound of that mode with
+/// its material's Rayleigh damping, 4 / (c + sqrt(c^2 + 4 omega^2)), c = alpha + beta
+/// omega^2 (damped_stable_step; 2 / omega without damping). The smallest over the
+/// objects. Not multiplied by the safety factor; dt = +inf when nothing can move.
+StableStep stable_step(const Scene& scene);
+
+/// stable_step(scene).dt.
 double stable_time_step(const Scene& scene);
 
 /// Number of steps the run takes (from steps or ceil(end_time / dt)).

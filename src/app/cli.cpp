@@ -301,8 +301,8 @@ void print_summary(const Scene& s, std::ostream& out) {
   if (s.objects.size() > kShown) out << "  ... and " << s.objects.size() - kShown << " more objects\n";
   out << "  total: " << s.num_vertices() << " vertices, " << s.num_tets() << " tets, " << tris
       << " surface triangles, mass " << human(total_mass, "kg") << "\n";
-  const double stable = stable_time_step(s);
-  out << "  stable explicit time step " << human(stable, "s") << " (2 / highest element frequency, docs/models.md)\n";
+  const StableStep stable = stable_step(s);
+  out << "  stable explicit time step " << human(stable.dt, "s") << " (" << stable.explain(s) << ")\n";
   out << "  time step " << human(sim.dt, "s") << (sim.dt_auto ? " (auto, safety " : " (given") ;
   if (sim.dt_auto) out << sim.dt_safety;
   out << "), integrator " << to_string(sim.integrator) << "\n";

@@ -642,6 +642,16 @@ double max_tet_frequency(const SceneObject& o, const Material& mat) {
   return nan ? std::numeric_limits<double>::quiet_NaN() : wmax;
 }
 
+/// Folds object i, with highest tet frequency w, into the scene's limit: its damped bound
+/// (damped_stable_step with its material's Rayleigh damping) if smaller. The bound falls
+/// with w, so the element maximum is safe for every mode of the object (stability.cpp).
+void take_smaller(StableStep& stable, const Scene& scene, std::size_t i, double w) {
+  const Material& mat = scene.materials[scene.objects[i].material];
+  const double dt = damped_stable_step(w, mat.damping_mass, mat.damping_stiffness);
+  // Ties keep the first object: the result does not depend on anything but the scene.
+  if (stable.object < 0 || dt < stable.dt) stable = {dt, static_cast<int>(i), w, mat.damping_mass, mat.damping_stiffness};
+}
+
 }  // namespace
 
 Scene load_scene_from_string(const std::string& yaml, const std::string& path, const SceneLimits& limits) {
@@ -690,7 +700,7 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path, c
   // highest tet frequency must be positive and finite: an overflowing stiffness (huge
   // 'young', tiny 'density') or tets whose volume underflows (extreme 'size' ratios) give
   // inf or NaN, and then no time step is stable.
-  double wmax = 0;
+  StableStep stable;
   for (std::size_t i = 0; i < scene.objects.size(); ++i) {
     const SceneObject& o = scene.objects[i];
     if (o.kinematic) continue;
@@ -702,17 +712,26 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path, c
         << "value: check 'young' and 'density' and that its tets are not flattened to zero volume)";
       r.fail(root["objects"], s.str());
     }
-    wmax = std::max(wmax, w);
+    take_smaller(stable, scene, i, w);
   }
-  const double stable = wmax > 0 ? 2 / wmax : std::numeric_limits<double>::infinity();
   if (scene.sim.dt_auto) {
-    if (!std::isfinite(stable))
+    if (!std::isfinite(stable.dt))
       r.fail(root["simulation"], "'dt: auto' needs at least one movable object; give 'dt' in seconds");
-    scene.sim.dt = scene.sim.dt_safety * stable;
-  } else if (scene.sim.integrator != IntegratorKind::implicit_euler && scene.sim.dt > stable) {
+    if (!(stable.dt > 0)) {
+      // Only a damping term that overflows (beta omega^2 = inf) gets here.
+      const SceneObject& o = scene.objects[static_cast<std::size_t>(stable.object)];
+      std::ostringstream s;
+      s << "object '" << o.name << "' (material '" << scene.materials[o.material].name << "') has a highest tet "
+        << "frequency of " << stable.omega << " rad/s and Rayleigh damping mass " << stable.alpha << " /s, stiffness "
+        << stable.beta << " s, so no explicit time step is stable (expected a smaller 'damping.stiffness'; "
+        << "docs/models.md, \"Stability limit\")";
+      r.fail(root["objects"], s.str());
+    }
+    scene.sim.dt = scene.sim.dt_safety * stable.dt;
+  } else if (scene.sim.integrator != IntegratorKind::implicit_euler && scene.sim.dt > stable.dt) {
     std::ostringstream s;
-    s << path << ": warning: dt = " << scene.sim.dt << " s exceeds the stable explicit limit " << stable
-      << " s (2 / the highest element frequency, docs/models.md); expect an unstable run, or use 'dt: auto'";
+    s << path << ": warning: dt = " << scene.sim.dt << " s exceeds the stable explicit limit " << stable.dt << " s ("
+      << stable.explain(scene) << "); expect an unstable run, or use 'dt: auto'";
     scene.warnings.push_back(s.str());
   }
   // Step counts are 64-bit integers downstream (total_steps, steps_between_frames).
@@ -744,11 +763,27 @@ Scene load_scene(const std::string& path, const SceneLimits& limits) {
   return load_scene_from_string(ss.str(), path, limits);
 }
 
-double stable_time_step(const Scene& scene) {
-  double wmax = 0;
-  for (const auto& o : scene.objects)
-    if (!o.kinematic) wmax = std::max(wmax, max_tet_frequency(o, scene.materials[o.material]));
-  return wmax > 0 ? 2 / wmax : std::numeric_limits<double>::infinity();
+StableStep stable_step(const Scene& scene) {
+  StableStep stable;
+  for (std::size_t i = 0; i < scene.objects.size(); ++i)
+    if (!scene.objects[i].kinematic)
+      take_smaller(stable, scene, i, max_tet_frequency(scene.objects[i], scene.materials[scene.objects[i].material]));
+  return stable;
+}
+
+double stable_time_step(const Scene& scene) { return stable_step(scene).dt; }
+
+std::string StableStep::explain(const Scene& scene) const {
+  std::ostringstream s;
+  if (!damped() || object < 0) {
+    s << "2 / the highest element frequency, docs/models.md";
+    return s.str();
+  }
+  const SceneObject& o = scene.objects[static_cast<std::size_t>(object)];
+  s << "object '" << o.name << "': 2 / its highest element frequency " << omega << " rad/s = " << 2 / omega
+    << " s, lowered by the Rayleigh damping of material '" << scene.materials[o.material].name << "' (mass " << alpha
+    << " /s, stiffness " << beta << " s; damping ratio " << damping_ratio() << "); docs/models.md";
+  return s.str();
 }
 
 std::int64_t total_steps(const Simulation& sim) {

@@ -298,10 +298,14 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     m << "numerical failure at step " << step << " (t = " << format_time(simulator.time()) << " s): " << what
       << (solver ? ".\n  Try a smaller dt: now " : ".\n  The run has become unstable. Try a smaller dt: now ") << sim.dt
       << " s";
-    const double stable = stable_time_step(scene);
-    if (std::isfinite(stable))
-      m << "; the stable explicit limit of this scene is " << stable << " s ('dt: auto' takes " << sim.dt_safety
-        << " of it)";
+    const StableStep stable = stable_step(scene);
+    if (std::isfinite(stable.dt)) {
+      m << "; the stable explicit limit of this scene is " << stable.dt << " s";
+      if (stable.damped())
+        m << " (with the Rayleigh damping of object '" << scene.objects[static_cast<std::size_t>(stable.object)].name
+          << "')";
+      m << " ('dt: auto' takes " << sim.dt_safety << " of it)";
+    }
     if (sim.integrator != IntegratorKind::implicit_euler) m << ", or the implicit_euler integrator";
     if (solver)
       m << "; or give the solver more room: PETSC_OPTIONS=\"-implicit_ksp_max_it N -implicit_ksp_rtol R\" "

@@ -69,8 +69,9 @@ struct Sample {
 
 }  // namespace
 
-// Scene: tests/data/scenes/soak.yaml, 397 vertices, 1164 tets, dt = 2.034e-4 s (auto), so
-// 10^5 steps are 20.3 s of simulated time. Warm-up: the first 10^4 steps (2.03 s).
+// Scene: tests/data/scenes/soak.yaml, 397 vertices, 1164 tets, dt = 1.594e-4 s (auto, the
+// damped limit; 2.034e-4 s before dt: auto took the damping into account), so 10^5 steps
+// are 15.9 s of simulated time. Warm-up: the first 10^4 steps (1.59 s).
 // References and tolerances (measured values: docs/reliability.md, "Soak"):
 //   - Memory: from the end of the warm-up on, malloc's bytes in use (mallinfo2) grow by less
 //     than 64 KiB, and the data segment and the peak RSS by less than 1 MiB. The first
