@@ -23,9 +23,10 @@ constexpr double kSceneBytesPerTet = 274;           // the scene's meshes, on ev
 constexpr double kOwnedBytesPerTet = 120;           // state of the owned objects: forces,
 constexpr double kOwnedBytesPerVertex = 1514;       // collision, contact, output
 
-// A field "Name:   123 kB" of /proc/self/status [bytes]; 0 when missing.
-double status_field(const char* name) {
-  std::ifstream in("/proc/self/status");
+// A field "Name:   123 kB" of a /proc file (/proc/self/status, /proc/meminfo) [bytes];
+// 0 when missing.
+double proc_field(const char* file, const char* name) {
+  std::ifstream in(file);
   std::string line;
   const std::string key = std::string(name) + ":";
   while (std::getline(in, line))
@@ -37,20 +38,8 @@ double status_field(const char* name) {
     }
   return 0;
 }
-
-double meminfo_field(const char* name) {
-  std::ifstream in("/proc/meminfo");
-  std::string line;
-  const std::string key = std::string(name) + ":";
-  while (std::getline(in, line))
-    if (line.rfind(key, 0) == 0) {
-      std::istringstream s(line.substr(key.size()));
-      double kb = 0;
-      s >> kb;
-      return kb * 1024;
-    }
-  return 0;
-}
+double status_field(const char* name) { return proc_field("/proc/self/status", name); }
+double meminfo_field(const char* name) { return proc_field("/proc/meminfo", name); }
 
 }  // namespace
 
