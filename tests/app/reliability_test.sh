@@ -6,7 +6,7 @@
 #    written before open in h5py and the XDMF, the newest complete checkpoint (the one
 #    expected, or the test fails) continues the run on another rank count to the frames
 #    of an uninterrupted run, bitwise;
-#  - SIGINT and SIGTERM (one rank; one rank of two; SIGTERM to mpiexec itself): a
+#  - SIGINT and SIGTERM (one rank; one rank of two; SIGTERM to every rank of an mpiexec job): a
 #    checkpoint at the step, exit status 0, a message; the restart is bitwise;
 #  - --checkpoint-minutes writes checkpoints by wall time; --restart CKPT --output NEWDIR
 #    continues into a new directory; a checkpoint whose scene reads differently now is
@@ -91,24 +91,29 @@ signal_case() {
 signal_case 1 sigint:step:77 SIGINT 2
 signal_case 2 sigterm:step:77:1 SIGTERM 3
 
-# SIGTERM sent to mpiexec itself, which forwards it to both ranks: waits (up to 60 s) for
-# the fourth frame, then signals; where the run stops does not matter, only that it does,
-# with a checkpoint from which it continues bitwise.
+# SIGTERM sent to every rank of an mpiexec job at once, as Slurm does at the end of a
+# job's time (scancel, time limit): waits (up to 60 s) for the fourth frame, then
+# signals; where the run stops does not matter, only that it does, with a checkpoint from
+# which it continues bitwise. (SIGTERM to mpiexec itself is not tested: Open MPI 4.1
+# forwards it late and follows it with SIGKILL after odls_base_sigkill_timeout, 1 s by
+# default, so whether the ranks checkpoint depends on load; docs/reliability.md, "Signals".)
 rm -rf t2
 timeout 60 "$mpiexec" --oversubscribe -n 2 "$exe" run "$scene" --steps 200000 --output-every 10 --quiet --output t2 > t2.log 2>&1 &
 pid=$!
 for _ in $(seq 600); do [ -f t2/frames/000003.h5 ] && break; sleep 0.1; done
-kill -TERM "$pid"
+for p in $(pgrep -f -- "--output t2\$"); do
+  [ "$(cat "/proc/$p/comm" 2>/dev/null)" = softcontact ] && kill -TERM "$p"
+done
 wait "$pid"
 step=$(sed -n 's/.*stopped by SIGTERM at step \([0-9]*\).*/\1/p' t2.log)
 if [ -z "$step" ]; then
-  bad "SIGTERM to mpiexec: no message"; cat t2.log
+  bad "SIGTERM to every rank: no message"; cat t2.log
 else
-  [ -f "$(ckpt t2 "$step")" ] || bad "SIGTERM to mpiexec: no checkpoint at step $step"
-  $check t2 --min-frames 4 > /dev/null || bad "SIGTERM to mpiexec: output unreadable"
-  mpi 1 "$exe" run --restart t2 --steps $((step + 55)) --quiet > t2r.log 2>&1 || { bad "SIGTERM to mpiexec: restart failed"; cat t2r.log; }
+  [ -f "$(ckpt t2 "$step")" ] || bad "SIGTERM to every rank: no checkpoint at step $step"
+  $check t2 --min-frames 4 > /dev/null || bad "SIGTERM to every rank: output unreadable"
+  mpi 1 "$exe" run --restart t2 --steps $((step + 55)) --quiet > t2r.log 2>&1 || { bad "SIGTERM to every rank: restart failed"; cat t2r.log; }
   "$exe" run "$scene" --steps $((step + 55)) --output-every 10 --quiet --output t2ref > /dev/null 2>&1
-  $check t2 t2ref --same-count > /dev/null || bad "SIGTERM to mpiexec: the continued run differs from an uninterrupted one"
+  $check t2 t2ref --same-count > /dev/null || bad "SIGTERM to every rank: the continued run differs from an uninterrupted one"
   ok
 fi
 
