@@ -258,9 +258,9 @@ TEST(Soak, HundredThousandStepsFlatMemoryAndNoRestingDrift) {
   EXPECT_LT(drift_mid_end, 1e-3 * h);
   EXPECT_LT(disp_max, 1e-2 * h);
   // Kinetic energy: 8.8e-15 J in the second half before the contact response of issue 14;
-  // since then a standing vibration of the resting contacts stays (1.4e-7 J, fastest
-  // vertex 1.7 mm/s, constant from step 50000 on, without drift: docs/reliability.md,
-  // "Soak"). The bounds are about 2.5 and 7 times the values measured at dt: auto with
+  // since then resting contact vertices keep a stored velocity that is not the rate of
+  // their positions (1.4e-7 J, fastest vertex 1.7 mm/s, constant from step 50000 on,
+  // positions still to 1e-9 m per step: docs/reliability.md, "Soak"). The bounds are about 2.5 and 7 times the values measured at dt: auto with
   // the damping (2.1e-5 J after the warm-up, 1.4e-7 J in the second half).
   EXPECT_LT(ekin_after_warm, 5e-5);
   EXPECT_LT(ekin_second_half, 1e-6);
