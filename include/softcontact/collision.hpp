@@ -28,6 +28,12 @@ namespace softcontact {
 /// x~_i out of B (so x~_i + d_i lies on B's surface).
 struct Collision {
   index_t point = -1;                   ///< local index of vertex i in the World
+  /// Edge-edge contacts (docs/collision.md, "Edge contacts"): the point side is the edge
+  /// (point, point2) with weights point_weight and 1 - point_weight, the "triangle" side
+  /// the other body's edge (triangle[0], triangle[1]; triangle[2] repeats triangle[0] with
+  /// weight 0). Vertex collisions: point2 = -1, point_weight = 1.
+  index_t point2 = -1;
+  double point_weight = 1;
   std::array<index_t, 3> triangle{};    ///< local indices of j, k, l (outward order of B's surface)
   std::array<double, 3> weight{};       ///< omega_ij, omega_ik, omega_il; sum 1, each in [0, 1]
   std::array<double, 3> depth{};        ///< penetration vector d_i [m]
@@ -47,6 +53,9 @@ struct CollisionStats {
   std::int64_t entry_records = 0;       ///< records resolved towards where the point entered B (penetration_depth.hpp, item 5)
   std::int64_t redirected_depths = 0;   ///< consistent depths more than twice the nearest surface distance, replaced (item 6)
   std::int64_t self_collisions = 0;     ///< vertices inside a non-incident tet of their own object (no records)
+  std::int64_t edge_crossings = 0;      ///< surface edge / surface triangle crossings between bodies at x~
+  std::int64_t edge_contacts = 0;       ///< edge-edge records among `collisions`
+  std::int64_t edge_unpaired = 0;       ///< crossing pairs left without a record
   std::int64_t degenerate_skipped = 0;  ///< degenerate triangles/tets/edges and non-finite positions met and handled
   /// Largest |x~ - x^t| / thinnest object thickness (tunnelling risk; 0 without x^t).
   /// Thickness: smallest extent of an object's vertices along its principal and
@@ -60,6 +69,7 @@ struct CollisionStats {
 
 struct CollisionSettings {
   bool self_collisions = false;  ///< detect (and report) self-collisions; responding to them is beyond the paper
+  bool edge_contacts = false;    ///< edge-edge contacts between bodies (docs/collision.md, "Edge contacts")
   double cell_size = 0;          ///< grid cell size [m]; 0: the average edge length of all tets
 };
 

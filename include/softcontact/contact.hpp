@@ -137,6 +137,7 @@ private:
     double mass, inv_mass;
     double share[3];         // summed pushes: sum over its collisions of beta p (the shares)
     double dx[3];            // x - x^t (x~, then corrected)
+    double dx0[3];           // x~ - x^t: the step's unconstrained motion
     double normal[3];        // sum of normal local forces
     double normal_dynamic[3];// their dynamic part (changes velocities)
     double friction[3];      // sum of friction local forces
@@ -147,6 +148,8 @@ private:
   };
   struct Local {             // per collision
     std::int32_t slot[4];    // i, j, k, l
+    std::int32_t slot2;      // edge contacts: the point side's second vertex, else -1
+    double pw;               // weight of i on the point side (1 for a vertex collision)
     std::int32_t anchor_slot[3];  // vertices of the anchor triangle when anchored, else -1
     // The local force pair is linear in the penetration vector: f_i = a_i d_i and
     // f_Ti,j = a_j d_i (eqs 15, 16), with a_i + sum_j a_j = 0. Friction reuses the
@@ -154,7 +157,8 @@ private:
     double ai;
     double aT[3];
     double d[3];             // the depth removed in this step (d_i, or less for an old overlap)
-    double dynamic;          // the part of d closed with velocity (the step's approach), in [0, 1]
+    double approach;         // how far i moved into T_i along d within the step (>= 0)
+    double dynamic;          // the part of the force closed with velocity (the step's approach), in [0, 1]
     double scale;            // friction: multiple of the tangential vector applied
     double e[3];             // friction: tangential vector
     double tangential;       // friction: |stopping force| of this collision
@@ -180,6 +184,7 @@ private:
   void reply(int dim, Value&& value, Halo* halo);
   void effective_depths(const std::vector<Collision>& c, double dt);
   std::int64_t normal_coefficients(const std::vector<Collision>& c, double dt);
+  void dynamic_fractions(const std::vector<Collision>& c);
   void friction_coefficients(const std::vector<Collision>& c, ContactStats& stats);
   void materialize();
 

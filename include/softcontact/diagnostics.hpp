@@ -32,6 +32,7 @@ struct StepDiagnostics {
   double potential_energy = 0;   ///< - sum m g . x over movable vertices [J]
   Vec3 momentum{};               ///< sum m v over movable vertices [kg m/s]
   std::int64_t contacts = 0;     ///< colliding points this step
+  std::int64_t edge_contacts = 0;///< edge-edge contact records this step (docs/collision.md, "Edge contacts")
   double residual_penetration = 0;  ///< largest remaining depth / median edge length
   double contact_force_balance = 0; ///< |sum F| / sum |F| over contact forces
   PhaseTimes seconds;            ///< mean seconds per step since the previous row

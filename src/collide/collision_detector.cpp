@@ -21,6 +21,7 @@
 #include <cmath>
 
 #include "collision_topology.hpp"
+#include "edge_contacts.hpp"
 #include "parallel.hpp"
 #include "penetration_depth.hpp"
 #include "point_in_tet.hpp"
@@ -152,6 +153,8 @@ struct CollisionDetector::Impl {
   std::vector<std::int64_t> normal_degenerate;
   std::vector<DepthCounters> group_counts;
   std::vector<DepthScratch> scratch;
+  SurfaceEdges surface_edges;
+  EdgeContactFinder edge_finder;
 
   Impl(const World& w, const CollisionSettings& s, const double* rest_x);
   void detect(const World& w, const double* x_prev, std::vector<Collision>& out, CollisionStats& st);
@@ -167,6 +170,7 @@ private:
 
 CollisionDetector::Impl::Impl(const World& w, const CollisionSettings& s, const double* rest_x)
     : settings(s), topo(build_collision_topology(w)) {
+  if (settings.edge_contacts) surface_edges = build_surface_edges(w, topo);
   double h = settings.cell_size > 0 ? settings.cell_size : topo.mean_edge_length;
   if (!(h > 0) || !std::isfinite(h)) h = 1;  // no edges at all: any size works
   grid.set_cell_size(h);
@@ -456,6 +460,21 @@ void CollisionDetector::Impl::depth(const World& w, const double* x_prev, std::v
       c.weight = {1.0 / 3, 1.0 / 3, 1.0 / 3};
       ++st.degenerate_skipped;
     }
+  }
+  if (settings.edge_contacts) {
+    EdgeSearchInput ein;
+    ein.world = &w;
+    ein.topo = &topo;
+    ein.edges = &surface_edges;
+    ein.bad_vertex = bad_vertex.data();
+    ein.object_box = &object_box;
+    ein.partners = &partners;
+    ein.cell_size = grid.cell_size();
+    EdgeCounters ec;
+    edge_finder.find(ein, out, ec);
+    st.edge_crossings = ec.crossings;
+    st.edge_contacts = ec.contacts;
+    st.edge_unpaired = ec.unpaired;
   }
   std::sort(out.begin(), out.end(), [](const Collision& a, const Collision& b) {
     return a.point_gid != b.point_gid ? a.point_gid < b.point_gid : a.triangle_gid < b.triangle_gid;

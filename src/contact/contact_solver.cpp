@@ -23,6 +23,20 @@ namespace {
 inline double norm3(const double* a) { return std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
 
 bool key_less(gid_t ap, gid_t at, gid_t bp, gid_t bt) { return ap != bp ? ap < bp : at < bt; }
+
+// A vector v acting on a collision's point side: all on i for a vertex collision, split
+// by the weights (pw, 1 - pw) over an edge contact's two vertices.
+template <class LocalT, class F>
+void emit_point_side(const LocalT& L, const double* v, F&& f) {
+  if (L.slot2 < 0) {
+    f(L.slot[0], v);
+    return;
+  }
+  const double a[3] = {L.pw * v[0], L.pw * v[1], L.pw * v[2]};
+  const double b[3] = {(1 - L.pw) * v[0], (1 - L.pw) * v[1], (1 - L.pw) * v[2]};
+  f(L.slot[0], a);
+  f(L.slot2, b);
+}
 }  // namespace
 
 ContactSolver::ContactSolver(const Scene& scene, const World& world)
@@ -47,7 +61,7 @@ std::int32_t ContactSolver::slot_of_vertex(const World& w, index_t v) {
     s.gid = w.vertex_gid[i];
     s.nb = -1;
     s.remote = false;
-    for (int d = 0; d < 3; ++d) s.dx[d] = w.x[3 * i + d] - w.x_prev[3 * i + d];
+    for (int d = 0; d < 3; ++d) s.dx[d] = s.dx0[d] = w.x[3 * i + d] - w.x_prev[3 * i + d];
     slots_.push_back(s);
   }
   return slot_of_[i];
@@ -187,11 +201,11 @@ void ContactSolver::reply(int dim, Value&& value, Halo* halo) {
   }
 }
 
-// The depth each collision removes in this step, and how much of it is dynamic. The
-// part of d_i that the pair's approach within the step explains (the gap this step's
-// motion opened) is closed with the velocity that goes with it, as in the paper: the
-// relative normal velocity is stopped. The rest is an overlap that was there before
-// the step (bodies that start overlapping, a gap left by an earlier step); it is
+// The depth each collision removes in this step, and the step's approach. The part of
+// d_i that the pair's approach within the step explains (the gap this step's motion
+// opened) is closed with the velocity that goes with it, as in the paper: the relative
+// normal velocity is stopped (dynamic_fractions). The rest is an overlap that was there
+// before the step (bodies that start overlapping, a gap left by an earlier step); it is
 // removed by a position-only correction, which changes no velocity (so it adds no
 // kinetic energy), and at most separation_speed * dt of it per step.
 void ContactSolver::effective_depths(const std::vector<Collision>& col, double dt) {
@@ -204,26 +218,59 @@ void ContactSolver::effective_depths(const std::vector<Collision>& col, double d
     Local& L = local_[static_cast<std::size_t>(q)];
     const double D = norm3(c.depth.data());
     for (int d = 0; d < 3; ++d) L.d[d] = c.depth[static_cast<std::size_t>(d)];
+    L.approach = 0;
     L.dynamic = 1;
     if (D == 0) continue;
     // Approach of i towards the point of T_i it touches within the step, along -n.
     double approach = 0;
     for (int d = 0; d < 3; ++d) {
-      double u = slots_[static_cast<std::size_t>(L.slot[0])].dx[d];
-      for (int k = 0; k < 3; ++k) u -= c.weight[static_cast<std::size_t>(k)] * slots_[static_cast<std::size_t>(L.slot[1 + k])].dx[d];
+      double u = L.pw * slots_[static_cast<std::size_t>(L.slot[0])].dx0[d];
+      if (L.slot2 >= 0) u += (1 - L.pw) * slots_[static_cast<std::size_t>(L.slot2)].dx0[d];
+      for (int k = 0; k < 3; ++k) u -= c.weight[static_cast<std::size_t>(k)] * slots_[static_cast<std::size_t>(L.slot[1 + k])].dx0[d];
       approach -= u * c.depth[static_cast<std::size_t>(d)] / D;
     }
-    approach = std::max(approach, 0.0);
-    if (D <= approach) continue;
-    double applied = D;
-    if (D > approach + slack) {
-      applied = approach + slack;
-      for (int d = 0; d < 3; ++d) L.d[d] *= applied / D;
+    L.approach = std::max(approach, 0.0);
+    if (D > L.approach + slack) {
+      for (int d = 0; d < 3; ++d) L.d[d] *= (L.approach + slack) / D;
       ++capped;
     }
-    L.dynamic = approach / applied;
   }
   capped_ = capped;
+}
+
+// The dynamic part of each collision's force pair, once the normal correction of every
+// vertex is known. What the correction actually closes of collision q's gap along n is
+//   A_q = n . (delta_i - sum_j omega_ij delta_j),   delta = corrected x - x~,
+// which is |d_q| for an isolated collision but can be less where shares split a vertex.
+// The first a_q of it (the step's approach) is stopped with velocity; only what closes
+// more is position-only. Measuring against A_q rather than |d_q| matters at rest: with
+// a_q / |d_q| a collision closed to a fraction s kept the velocity (1 - s) a_q / dt
+// into the contact step after step while a position-only shift held it in place (a
+// stored velocity that was not the positions' rate, seen as kinetic energy at rest).
+void ContactSolver::dynamic_fractions(const std::vector<Collision>& col) {
+  const std::ptrdiff_t nc = static_cast<std::ptrdiff_t>(col.size());
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t q = 0; q < nc; ++q) {
+    const Collision& c = col[static_cast<std::size_t>(q)];
+    Local& L = local_[static_cast<std::size_t>(q)];
+    const double D = norm3(L.d);
+    if (D == 0) continue;
+    double closed = 0;
+    for (int d = 0; d < 3; ++d) {
+      const Slot& si = slots_[static_cast<std::size_t>(L.slot[0])];
+      double u = L.pw * (si.dx[d] - si.dx0[d]);
+      if (L.slot2 >= 0) {
+        const Slot& s2 = slots_[static_cast<std::size_t>(L.slot2)];
+        u += (1 - L.pw) * (s2.dx[d] - s2.dx0[d]);
+      }
+      for (int k = 0; k < 3; ++k) {
+        const Slot& sj = slots_[static_cast<std::size_t>(L.slot[1 + k])];
+        u -= c.weight[static_cast<std::size_t>(k)] * (sj.dx[d] - sj.dx0[d]);
+      }
+      closed += u * L.d[d] / D;
+    }
+    L.dynamic = closed > L.approach ? L.approach / closed : (L.approach > 0 ? 1.0 : 0.0);
+  }
 }
 
 // The normal force pair of each collision (contact.hpp gives the rule): f = lambda_q d_i
@@ -249,7 +296,14 @@ std::int64_t ContactSolver::normal_coefficients(const std::vector<Collision>& co
     const double n[3] = {c.depth[0] / D, c.depth[1] / D, c.depth[2] / D};
     double K = 0;
     const Slot& si = slots_[static_cast<std::size_t>(L.slot[0])];
-    if (si.inv_mass > 0) K += std::max(1.0, (n[0] * si.share[0] + n[1] * si.share[1] + n[2] * si.share[2]) / D) * si.inv_mass;
+    if (si.inv_mass > 0)
+      K += L.pw * std::max(L.pw, (n[0] * si.share[0] + n[1] * si.share[1] + n[2] * si.share[2]) / D) * si.inv_mass;
+    if (L.slot2 >= 0) {  // an edge contact's second point-side vertex
+      const Slot& s2 = slots_[static_cast<std::size_t>(L.slot2)];
+      const double w2 = 1 - L.pw;
+      if (w2 > 0 && s2.inv_mass > 0)
+        K += w2 * std::max(w2, (n[0] * s2.share[0] + n[1] * s2.share[1] + n[2] * s2.share[2]) / D) * s2.inv_mass;
+    }
     for (int k = 0; k < 3; ++k) {
       const double wk = c.weight[static_cast<std::size_t>(k)];
       const Slot& sj = slots_[static_cast<std::size_t>(L.slot[1 + k])];
@@ -316,7 +370,8 @@ void ContactSolver::friction_coefficients(const std::vector<Collision>& col, Con
       }
     } else {
       for (int d = 0; d < 3; ++d) {
-        u[d] = slots_[L.slot[0]].dx[d];
+        u[d] = L.pw * slots_[L.slot[0]].dx[d];
+        if (L.slot2 >= 0) u[d] += (1 - L.pw) * slots_[L.slot2].dx[d];
         for (int k = 0; k < 3; ++k) u[d] -= c.weight[k] * slots_[L.slot[1 + k]].dx[d];
       }
     }
@@ -399,11 +454,15 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
     Local& L = local_[q];
     L.slot[0] = slot_of_vertex(w, col[q].point);
     for (int k = 0; k < 3; ++k) L.slot[1 + k] = slot_of_vertex(w, col[q].triangle[k]);
+    L.slot2 = col[q].point2 >= 0 ? slot_of_vertex(w, col[q].point2) : -1;
+    L.pw = col[q].point_weight;
   }
   for (std::size_t q = 0; q < col.size(); ++q) {
     const Collision& c = col[q];
     Local& L = local_[q];
-    const AnchorEntry* an = anchor_[static_cast<std::size_t>(c.point)].find(c.other_object);
+    // Anchors are per (point, other body): edge contacts take none (their friction
+    // stops the step's relative motion only).
+    const AnchorEntry* an = c.point2 < 0 ? anchor_[static_cast<std::size_t>(c.point)].find(c.other_object) : nullptr;
     const bool anchored = an && an->step >= step_ - kAnchorGrace;
     for (int k = 0; k < 3; ++k) L.anchor_slot[k] = anchored ? slot_of_vertex(w, w.local_vertex(an->object, an->tri[k])) : -1;
   }
@@ -418,7 +477,7 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
       col, 3,
       [&](std::size_t q, auto&& f) {
         const double* p = col[q].depth.data();
-        f(local_[q].slot[0], p);
+        emit_point_side(local_[q], p, f);
         for (int k = 0; k < 3; ++k) {
           const double wk = col[q].weight[static_cast<std::size_t>(k)];
           const double pj[3] = {-wk * p[0], -wk * p[1], -wk * p[2]};
@@ -440,14 +499,20 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
         const Local& L = local_[q];
         const double* d = L.d;
         const double fi[3] = {L.ai * d[0], L.ai * d[1], L.ai * d[2]};
-        f(L.slot[0], fi);
+        emit_point_side(L, fi, f);
         for (int k = 0; k < 3; ++k) {
           const double fj[3] = {L.aT[k] * d[0], L.aT[k] * d[1], L.aT[k] * d[2]};
           f(L.slot[1 + k], fj);
         }
       },
       [](Slot& s) { return s.normal; }, halo);
-  // The dynamic part of the same forces (effective_depths): what changes velocities.
+  const double dt2 = dt * dt;
+  for (Slot& s : slots_)
+    if (s.nb < 0)
+      for (int d = 0; d < 3; ++d) s.dx[d] += dt2 * s.inv_mass * s.normal[d];
+  reply(3, [](Slot& s) { return s.dx; }, halo);
+  dynamic_fractions(col);
+  // The dynamic part of the same forces (dynamic_fractions): what changes velocities.
   reduce(
       col, 3,
       [&](std::size_t q, auto&& f) {
@@ -455,7 +520,7 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
         const double* d = L.d;
         const double a = L.ai * L.dynamic;
         const double fi[3] = {a * d[0], a * d[1], a * d[2]};
-        f(L.slot[0], fi);
+        emit_point_side(L, fi, f);
         for (int k = 0; k < 3; ++k) {
           const double b = L.aT[k] * L.dynamic;
           const double fj[3] = {b * d[0], b * d[1], b * d[2]};
@@ -463,12 +528,8 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
         }
       },
       [](Slot& s) { return s.normal_dynamic; }, halo);
-  const double dt2 = dt * dt;
-  for (Slot& s : slots_)
-    if (s.nb < 0)
-      for (int d = 0; d < 3; ++d) s.dx[d] += dt2 * s.inv_mass * s.normal[d];
-  reply(3, [](Slot& s) { return s.dx; }, halo);
   for (std::size_t q = 0; q < col.size(); ++q) {
+    if (col[q].point2 >= 0) continue;  // the penetration field is per point: vertex collisions
     Slot& si = slots_[static_cast<std::size_t>(local_[q].slot[0])];
     for (int a = 0; a < 3; ++a) si.depth[a] += col[q].depth[static_cast<std::size_t>(a)];
   }
@@ -480,7 +541,7 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
         const Local& L = local_[q];
         if (L.scale == 0) return;
         const double fi[3] = {L.ai * L.scale * L.e[0], L.ai * L.scale * L.e[1], L.ai * L.scale * L.e[2]};
-        f(L.slot[0], fi);
+        emit_point_side(L, fi, f);
         for (int k = 0; k < 3; ++k) {
           const double fj[3] = {L.aT[k] * L.scale * L.e[0], L.aT[k] * L.scale * L.e[1], L.aT[k] * L.scale * L.e[2]};
           f(L.slot[1 + k], fj);
@@ -525,6 +586,7 @@ void ContactSolver::update_anchors(const World& w, const std::vector<Collision>&
   if (local_.size() < col.size()) return;  // respond() has not seen these collisions
   for (std::size_t q = 0; q < col.size(); ++q) {
     const Collision& c = col[q];
+    if (c.point2 >= 0) continue;  // edge contacts keep no anchor
     AnchorEntry& an = anchor_[static_cast<std::size_t>(c.point)].slot_for(c.other_object);
     if (local_[q].keep_anchor) {
       an.step = step_;

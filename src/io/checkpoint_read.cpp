@@ -42,6 +42,7 @@ std::uint64_t scene_fingerprint(const Scene& scene) {
   f.value(s.gravity);
   f.value(s.integrator);
   f.value(s.self_collisions);
+  f.value(s.edge_contacts);
   f.value(scene.materials.size());
   for (const Material& m : scene.materials) {
     f.value(m.model);

@@ -97,7 +97,7 @@ void reduce_mechanics(MPI_Comm comm, const Scene& scene, const World& w, StepDia
 
 const char* DiagnosticsCsv::header() {
   return "step,time,kinetic_energy,elastic_energy,potential_energy,momentum_x,momentum_y,momentum_z,"
-         "contacts,residual_penetration,contact_force_balance,inverted_elements,"
+         "contacts,residual_penetration,contact_force_balance,inverted_elements,edge_contacts,"
          "t_forces,t_integrate,t_detect,t_depth,t_contact,t_comm,t_output,t_total";
 }
 
@@ -140,10 +140,10 @@ void DiagnosticsCsv::write(const StepDiagnostics& d) {
   char buf[1024];
   const PhaseTimes& t = d.seconds;
   std::snprintf(buf, sizeof buf,
-                "%lld,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%lld,%.17g,%.17g,%lld,%.6e,%.6e,%.6e,%.6e,%.6e,%.6e,%.6e,%.6e\n",
+                "%lld,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%lld,%.17g,%.17g,%lld,%lld,%.6e,%.6e,%.6e,%.6e,%.6e,%.6e,%.6e,%.6e\n",
                 static_cast<long long>(d.step), d.time, d.kinetic_energy, d.elastic_energy, d.potential_energy,
                 d.momentum[0], d.momentum[1], d.momentum[2], static_cast<long long>(d.contacts),
-                d.residual_penetration, d.contact_force_balance, static_cast<long long>(d.inverted_elements),
+                d.residual_penetration, d.contact_force_balance, static_cast<long long>(d.inverted_elements), static_cast<long long>(d.edge_contacts),
                 t.forces, t.integrate, t.detect, t.depth, t.contact, t.comm, t.output, t.total());
   out_ << buf;
   out_.flush();  // a killed batch job keeps every row written so far

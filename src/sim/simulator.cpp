@@ -129,6 +129,7 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
   scene_edge_lengths(scene, mean_edge, median_edge_);
   // One cell size for every rank: detection's tolerances scale with it.
   collision_settings_.self_collisions = scene.sim.self_collisions;
+  collision_settings_.edge_contacts = scene.sim.edge_contacts;
   collision_settings_.cell_size = mean_edge > 0 ? mean_edge : 1.0;
   skin_ = collision_settings_.cell_size;
   max_skin_ = median_object_size(scene_boxes(scene));
@@ -142,7 +143,7 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
     // force and move nothing: not worth a warning.
     auto movable = [&](index_t v) { return world_.inv_mass[static_cast<std::size_t>(v)] != 0; };
     for (const Collision& c : residual_) {
-      if (!movable(c.point) && !movable(c.triangle[0]) && !movable(c.triangle[1]) && !movable(c.triangle[2])) continue;
+      if (!movable(c.point) && (c.point2 < 0 || !movable(c.point2)) && !movable(c.triangle[0]) && !movable(c.triangle[1]) && !movable(c.triangle[2])) continue;
       ++initial_overlaps_;
       initial_overlap_depth_ = std::max(initial_overlap_depth_, std::hypot(c.depth[0], c.depth[1], c.depth[2]));
     }
@@ -550,9 +551,10 @@ void Simulator::measure(StepDiagnostics& d, const VerifyFrame* check) {
   // repeat its assumptions) but the independent check's deepest surface vertex (verify.hpp).
   const double residual = (check ? *check : verify(false)).surface_depth();
 
-  std::int64_t contacts = collision_stats_.colliding_points, total = 0;
-  MPI_Allreduce(&contacts, &total, 1, MPI_INT64_T, MPI_SUM, comm_);
-  d.contacts = total;
+  std::int64_t counts[2] = {collision_stats_.colliding_points, collision_stats_.edge_contacts}, totals[2] = {0, 0};
+  MPI_Allreduce(counts, totals, 2, MPI_INT64_T, MPI_SUM, comm_);
+  d.contacts = totals[0];
+  d.edge_contacts = totals[1];
   d.residual_penetration = residual;
 }
 

@@ -2,6 +2,7 @@
 // Helpers shared by the collision tests: scenes from YAML, moving objects, the
 // brute-force reference (every surface vertex against every tet of every other object).
 #include <array>
+#include <random>
 #include <cmath>
 #include <set>
 #include <string>
@@ -13,6 +14,7 @@
 #include "softcontact/collision.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/world.hpp"
+#include "../random_objects.hpp"
 
 namespace softcontact::test {
 
@@ -26,6 +28,18 @@ materials:
 inline World world_from_objects(const std::string& objects) {
   const Scene s = load_scene_from_string(std::string(kMaterials) + "objects:\n" + objects, "test.yaml");
   return build_world(s, block_partition(s, 1), 0);
+}
+
+/// A random scene: `n` objects (tori, spheres, boxes) at random positions in a small
+/// region so that many overlap, with random orientations, then every vertex jittered
+/// (which also inverts and flattens some tets).
+inline World random_scene(std::uint64_t seed, int n, double jitter) {
+  std::mt19937_64 g(seed);
+  const std::string yaml = random_objects_yaml(g, n);
+  World w = world_from_objects(yaml);
+  std::uniform_real_distribution<double> u(-jitter, jitter);
+  for (double& c : w.x) c += u(g);
+  return w;
 }
 
 inline void translate_object(World& w, int object, const std::array<double, 3>& t) {
@@ -54,7 +68,8 @@ inline std::set<std::pair<index_t, std::int32_t>> brute_force_pairs(const World&
 
 inline std::set<std::pair<index_t, std::int32_t>> record_pairs(const std::vector<Collision>& c) {
   std::set<std::pair<index_t, std::int32_t>> out;
-  for (const Collision& r : c) out.insert({r.point, r.other_object});
+  for (const Collision& r : c)
+    if (r.point2 < 0) out.insert({r.point, r.other_object});  // vertex records (edge contacts: test_edge_contacts.cpp)
   return out;
 }
 

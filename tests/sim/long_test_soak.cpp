@@ -258,12 +258,13 @@ TEST(Soak, HundredThousandStepsFlatMemoryAndNoRestingDrift) {
   EXPECT_LT(drift_mid_end, 1e-3 * h);
   EXPECT_LT(disp_max, 1e-2 * h);
   // Kinetic energy: 8.8e-15 J in the second half before the contact response of issue 14;
-  // since then resting contact vertices keep a stored velocity that is not the rate of
-  // their positions (1.4e-7 J, fastest vertex 1.7 mm/s, constant from step 50000 on,
-  // positions still to 1e-9 m per step: docs/reliability.md, "Soak"). The bounds are about 2.5 and 7 times the values measured at dt: auto with
-  // the damping (2.1e-5 J after the warm-up, 1.4e-7 J in the second half).
+  // 1.4e-7 J with it, when resting contact vertices kept a stored velocity that was not
+  // the rate of their positions; 4.6e-11 J since the dynamic part of the contact force is
+  // measured against what the correction closes (docs/reliability.md, "Soak"). Bounds:
+  // 2.5 and 3 times the values measured at dt: auto with the damping (2.1e-5 J after
+  // the warm-up, still settling; 4.6e-11 J in the second half).
   EXPECT_LT(ekin_after_warm, 5e-5);
-  EXPECT_LT(ekin_second_half, 1e-6);
+  EXPECT_LT(ekin_second_half, 1.5e-10);
   EXPECT_GE(static_cast<double>(cmin), 0.9 * static_cast<double>(at_warm->contacts));
   EXPECT_LE(static_cast<double>(cmax), 1.1 * static_cast<double>(at_warm->contacts));
   EXPECT_LE(res_second, res_first + 1e-3);

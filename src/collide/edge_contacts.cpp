@@ -1,0 +1,334 @@
+#include "edge_contacts.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <tuple>
+
+#include "parallel.hpp"
+
+namespace softcontact::collide {
+
+SurfaceEdges build_surface_edges(const World& w, const CollisionTopology& topo) {
+  SurfaceEdges e;
+  e.object_begin.push_back(0);
+  std::vector<std::tuple<index_t, index_t, index_t>> list;  // (a, b, triangle)
+  for (const ObjectInfo& o : topo.objects) {
+    list.clear();
+    for (index_t r : o.triangles) {
+      const index_t* t = &w.triangles[3 * static_cast<std::size_t>(r)];
+      for (int k = 0; k < 3; ++k) {
+        const index_t p = t[k], q = t[(k + 1) % 3];
+        list.emplace_back(std::min(p, q), std::max(p, q), r);
+      }
+    }
+    std::sort(list.begin(), list.end());
+    for (std::size_t i = 0; i < list.size();) {
+      std::size_t j = i + 1;
+      while (j < list.size() && std::get<0>(list[j]) == std::get<0>(list[i]) && std::get<1>(list[j]) == std::get<1>(list[i]))
+        ++j;
+      e.a.push_back(std::get<0>(list[i]));
+      e.b.push_back(std::get<1>(list[i]));
+      e.tri0.push_back(std::get<2>(list[i]));
+      e.tri1.push_back(j > i + 1 ? std::get<2>(list[i + 1]) : -1);  // a non-manifold edge keeps its first two
+      const V3 d = load(w.x.data(), e.b.back()) - load(w.x.data(), e.a.back());
+      e.max_length = std::max(e.max_length, std::sqrt(norm2(d)));
+      i = j;
+    }
+    e.object_begin.push_back(e.a.size());
+  }
+  return e;
+}
+
+namespace {
+
+// Strict crossing of segment pq with triangle abc (outward order): the endpoints on
+// opposite sides of the plane and the line through p and q inside the triangle. t is the
+// parameter of the crossing along p -> q; entering when p is on the outer side.
+bool crosses(const V3& p, const V3& q, const V3& a, const V3& b, const V3& c, double& t, bool& entering) {
+  const double sp = orient(a, b, c, p), sq = orient(a, b, c, q);
+  if (!((sp > 0 && sq < 0) || (sp < 0 && sq > 0))) return false;
+  const double v0 = orient(p, q, b, c), v1 = orient(p, q, c, a), v2 = orient(p, q, a, b);
+  if (!((v0 > 0 && v1 > 0 && v2 > 0) || (v0 < 0 && v1 < 0 && v2 < 0))) return false;
+  t = sp / (sp - sq);
+  entering = sp > 0;
+  return true;
+}
+
+V3 unit_normal(const double* x, const index_t* t) {
+  const V3 a = load(x, t[0]), b = load(x, t[1]), c = load(x, t[2]);
+  return normalized(cross(b - a, c - a));
+}
+
+}  // namespace
+
+void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& out, EdgeCounters& counters) {
+  const World& w = *in.world;
+  const CollisionTopology& topo = *in.topo;
+  const SurfaceEdges& E = *in.edges;
+  const std::vector<Box>& obox = *in.object_box;
+  const std::vector<std::vector<std::int32_t>>& partners = *in.partners;
+  const double* x = w.x.data();
+  const std::size_t no = topo.objects.size();
+
+  // 1. Candidates: surface edges of owned objects whose box meets a partner's box.
+  cand_.clear();
+  cand_slot_.clear();
+  cand_box_.assign(no, Box{});
+  for (Box& b : cand_box_) b.reset();
+  seg_slot_.clear();
+  double half = 0;
+  for (std::size_t k = 0; k < no; ++k) {
+    if (partners[k].empty() || !w.owns_object(topo.objects[k].object)) continue;
+    for (std::size_t e = E.object_begin[k]; e < E.object_begin[k + 1]; ++e) {
+      const index_t a = E.a[e], b = E.b[e];
+      if (in.bad_vertex[static_cast<std::size_t>(a)] || in.bad_vertex[static_cast<std::size_t>(b)]) continue;
+      Box eb;
+      eb.reset();
+      eb.add(load(x, a));
+      eb.add(load(x, b));
+      bool take = false;
+      for (std::size_t q = 0; !take && q < partners[k].size(); ++q) take = obox[static_cast<std::size_t>(partners[k][q])].overlaps(eb);
+      if (!take) continue;
+      cand_.push_back(e);
+      cand_slot_.push_back(static_cast<std::int32_t>(k));
+      cand_box_[k].add(eb);
+    }
+  }
+  if (cand_.empty()) return;
+  // The grid holds points: each candidate edge goes in as the midpoints of pieces no
+  // longer than a cell, so that a triangle's box grown by half a cell finds every edge
+  // that can cross it (one long edge, a floor's or a wall's, would otherwise grow every
+  // triangle's query box to its own length).
+  const double cell = in.cell_size;
+  mid_.clear();
+  seg_edge_.clear();
+  cand_pq_.resize(6 * cand_.size());
+  for (std::size_t i = 0; i < cand_.size(); ++i) {
+    const V3 p = load(x, E.a[cand_[i]]), q = load(x, E.b[cand_[i]]);
+    for (std::size_t d = 0; d < 3; ++d) {
+      cand_pq_[6 * i + d] = p[d];
+      cand_pq_[6 * i + 3 + d] = q[d];
+    }
+    const double len = std::sqrt(norm2(q - p));
+    const double pieces = std::ceil(len / cell);
+    const int k = pieces > 1 && pieces < 1024 ? static_cast<int>(pieces) : 1;
+    for (int j = 0; j < k; ++j) {
+      const V3 m = p + ((j + 0.5) / k) * (q - p);
+      for (int d = 0; d < 3; ++d) mid_.push_back(m[static_cast<std::size_t>(d)]);
+      seg_edge_.push_back(static_cast<std::uint32_t>(i));
+      seg_slot_.push_back(cand_slot_[i]);
+    }
+    half = std::max(half, 0.5 * len / k);
+  }
+  cand_index_.resize(seg_edge_.size());
+  std::iota(cand_index_.begin(), cand_index_.end(), index_t{0});
+  grid_.set_cell_size(cell);
+  grid_.insert_points(mid_.data(), cand_index_, seg_slot_.data());
+
+  // Per object B, where its triangles can meet a partner's candidate edge.
+  tri_box_.resize(no);
+  for (std::size_t b = 0; b < no; ++b) {
+    Box fb;
+    fb.reset();
+    for (std::int32_t a : partners[b]) {
+      const Box& ca = cand_box_[static_cast<std::size_t>(a)];
+      if (ca.empty() || !ca.overlaps(obox[b])) continue;
+      Box cut;
+      for (int d = 0; d < 3; ++d) {
+        cut.lo[d] = std::max(ca.lo[d], obox[b].lo[d]);
+        cut.hi[d] = std::min(ca.hi[d], obox[b].hi[d]);
+      }
+      fb.add(cut);
+    }
+    tri_box_[b] = fb;
+  }
+
+  // 2. Every surface triangle near a candidate against the edges of other objects.
+  reset_buffers(buf_);
+  passed_.resize(static_cast<std::size_t>(max_threads()));
+
+  const std::size_t s = w.triangles.size() / 3;
+  parallel_for(s, [&](std::size_t r, int th) {
+    const std::int32_t slot = topo.triangle_slot[r];
+    if (slot < 0 || tri_box_[static_cast<std::size_t>(slot)].empty()) return;
+    const index_t* t = &w.triangles[3 * r];
+    if (in.bad_vertex[static_cast<std::size_t>(t[0])] || in.bad_vertex[static_cast<std::size_t>(t[1])] ||
+        in.bad_vertex[static_cast<std::size_t>(t[2])])
+      return;
+    const V3 a = load(x, t[0]), b = load(x, t[1]), c = load(x, t[2]);
+    Box box;
+    box.reset();
+    box.add(a);
+    box.add(b);
+    box.add(c);
+    if (!box.overlaps(tri_box_[static_cast<std::size_t>(slot)])) return;
+    // Only a triangle inside the box of a partner object (whose edges are candidates
+    // there) can be crossed: in a pile the union above is most of the object.
+    bool near = false;
+    for (std::int32_t p : partners[static_cast<std::size_t>(slot)]) {
+      const Box& cb = cand_box_[static_cast<std::size_t>(p)];
+      if (!cb.empty() && cb.overlaps(box) && obox[static_cast<std::size_t>(p)].overlaps(box)) {
+        near = true;
+        break;
+      }
+    }
+    if (!near) return;
+    for (int d = 0; d < 3; ++d) {
+      box.lo[static_cast<std::size_t>(d)] -= half;
+      box.hi[static_cast<std::size_t>(d)] += half;
+    }
+    const CellRange range = grid_.range_of(box);
+    auto& mine = buf_[static_cast<std::size_t>(th)];
+    const double* px = grid_.sorted_x();
+    const Box tight = [&] {
+      Box t;
+      t.reset();
+      t.add(a);
+      t.add(b);
+      t.add(c);
+      return t;
+    }();
+    const V3 nrm = cross(b - a, c - a);
+    // Pass 1, branch-free over the runs (contiguous): pieces whose midpoint is in the
+    // grown box and that belong to another object. Pass 2 on the few collected: the
+    // edge's box against the triangle's, both endpoints on one side of its plane, then
+    // the exact test.
+    auto& passed = passed_[static_cast<std::size_t>(th)];
+    std::size_t n = 0;
+    const std::int32_t* label = grid_.sorted_label();
+    auto collect = [&](std::size_t k0, std::size_t k1) {
+      if (passed.size() < n + (k1 - k0)) passed.resize(2 * (n + (k1 - k0)));
+      std::uint32_t* outp = passed.data();
+      for (std::size_t k = k0; k < k1; ++k) {
+        const double* m = px + 3 * k;
+        const bool in = (m[0] >= box.lo[0]) & (m[0] <= box.hi[0]) & (m[1] >= box.lo[1]) & (m[1] <= box.hi[1]) &
+                        (m[2] >= box.lo[2]) & (m[2] <= box.hi[2]) & (label[k] != slot);
+        outp[n] = static_cast<std::uint32_t>(k);
+        n += in;
+      }
+    };
+    auto test = [&]() {
+      for (std::size_t j = 0; j < n; ++j) {
+        const std::uint32_t i = seg_edge_[static_cast<std::size_t>(grid_.point(passed[j]))];
+        const double* pq = &cand_pq_[6 * static_cast<std::size_t>(i)];
+        bool apart = false;
+        for (std::size_t d = 0; d < 3; ++d)
+          apart |= std::min(pq[d], pq[3 + d]) > tight.hi[d] || std::max(pq[d], pq[3 + d]) < tight.lo[d];
+        if (apart) continue;
+        const V3 p{pq[0], pq[1], pq[2]}, q{pq[3], pq[4], pq[5]};
+        const double sp = dot(p - a, nrm), sq = dot(q - a, nrm);
+        if (!((sp > 0 && sq < 0) || (sp < 0 && sq > 0))) continue;
+        double tc;
+        bool entering;
+        if (!crosses(p, q, a, b, c, tc, entering)) continue;
+        mine.push_back({i, slot, static_cast<index_t>(r), tc, entering});
+      }
+    };
+    // A box spanning more cells than there are edges (a blown-up simulation, or one very
+    // long edge): cheaper to test every edge than to visit the cells.
+    if (range.count() > static_cast<double>(grid_.num_points())) collect(0, grid_.num_points());
+    else grid_.for_each_run(range, collect);
+    test();
+  });
+  crossings_.clear();
+  concatenate(buf_, crossings_);
+  std::sort(crossings_.begin(), crossings_.end(), [](const Crossing& p, const Crossing& q) {
+    if (p.edge != q.edge) return p.edge < q.edge;
+    if (p.slot != q.slot) return p.slot < q.slot;
+    if (p.t != q.t) return p.t < q.t;
+    return p.tri < q.tri;
+  });
+  // An edge cut into pieces can meet a triangle through more than one piece.
+  crossings_.erase(std::unique(crossings_.begin(), crossings_.end(),
+                               [](const Crossing& p, const Crossing& q) { return p.edge == q.edge && p.tri == q.tri; }),
+                   crossings_.end());
+  counters.crossings += static_cast<std::int64_t>(crossings_.size());
+
+  // 3. and 4. Pairs of crossings per (edge, body) to edge-edge records.
+  vertex_records_.clear();
+  for (const Collision& c : out) vertex_records_.emplace_back(c.point, c.other_object);
+  std::sort(vertex_records_.begin(), vertex_records_.end());
+  auto has_record = [&](index_t v, std::int32_t object) {
+    return std::binary_search(vertex_records_.begin(), vertex_records_.end(), std::make_pair(v, object));
+  };
+  const gid_t ntri = w.global_triangles;
+  for (std::size_t g0 = 0; g0 < crossings_.size();) {
+    std::size_t g1 = g0 + 1;
+    while (g1 < crossings_.size() && crossings_[g1].edge == crossings_[g0].edge && crossings_[g1].slot == crossings_[g0].slot)
+      ++g1;
+    const std::size_t e = cand_[crossings_[g0].edge];
+    const index_t ia = E.a[e], ib = E.b[e];
+    const std::int32_t other = topo.objects[static_cast<std::size_t>(crossings_[g0].slot)].object;
+    const std::int32_t rec_object = topo.objects[static_cast<std::size_t>(cand_slot_[crossings_[g0].edge])].object;
+    if (has_record(ia, other) || has_record(ib, other)) {
+      g0 = g1;
+      continue;
+    }
+    for (std::size_t q = g0; q + 1 < g1;) {
+      const Crossing& cin = crossings_[q];
+      const Crossing& cout = crossings_[q + 1];
+      if (!cin.entering || cout.entering) {
+        ++q;
+        continue;
+      }
+      q += 2;
+      // The edge e2 of B that the two triangles share.
+      const index_t* ti = &w.triangles[3 * static_cast<std::size_t>(cin.tri)];
+      const index_t* to = &w.triangles[3 * static_cast<std::size_t>(cout.tri)];
+      index_t shared[3];
+      int ns = 0;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          if (ti[i] == to[j]) shared[ns++] = ti[i];
+      // A vertex of B that is itself inside A (a vertex record): the fan around it is
+      // where e1 crosses, and the vertex response already removes that overlap.
+      if (ns == 1 && has_record(shared[0], rec_object)) continue;
+      const gid_t key = ntri * (1 + w.vertex_gid[static_cast<std::size_t>(ib)]) + w.triangle_gid[static_cast<std::size_t>(cin.tri)];
+      const V3 P = load(x, ia), Q = load(x, ib);
+      Collision rec;
+      rec.point = ia;
+      rec.point2 = ib;
+      rec.point_gid = w.vertex_gid[static_cast<std::size_t>(ia)];
+      rec.triangle_gid = key;
+      rec.object = rec_object;
+      rec.other_object = other;
+      bool edge_edge = false;
+      if (ns == 2) {
+        index_t ic = shared[0], id = shared[1];
+        if (w.vertex_gid[static_cast<std::size_t>(id)] < w.vertex_gid[static_cast<std::size_t>(ic)]) std::swap(ic, id);
+        const V3 C = load(x, ic), D = load(x, id);
+        const V3 u1 = Q - P, u2 = D - C;
+        const V3 n0 = cross(u1, u2);
+        const double a11 = dot(u1, u1), a12 = dot(u1, u2), a22 = dot(u2, u2);
+        const double den = a11 * a22 - a12 * a12;
+        if (norm2(n0) > 1e-12 * a11 * a22 && den > 0) {  // else parallel (aligned rims): no record
+          V3 n = normalized(n0);
+          const V3 outward = unit_normal(x, ti) + unit_normal(x, to);
+          if (dot(n, outward) < 0) n = -1.0 * n;
+          const V3 w0 = P - C;
+          const double b1 = dot(u1, w0), b2 = dot(u2, w0);
+          const double s = std::clamp((a12 * b2 - a22 * b1) / den, 0.0, 1.0);
+          const double u = std::clamp((a11 * b2 - a12 * b1) / den, 0.0, 1.0);
+          const double depth = dot(n, (C + u * u2) - (P + s * u1));
+          if (depth > 0 && std::isfinite(depth)) {
+            rec.point_weight = 1 - s;
+            rec.triangle = {ic, id, ic};
+            rec.weight = {1 - u, u, 0};
+            rec.depth = {depth * n[0], depth * n[1], depth * n[2]};
+            edge_edge = true;
+          }
+        }
+      }
+      if (!edge_edge) {
+        ++counters.unpaired;
+        continue;
+      }
+      out.push_back(rec);
+      ++counters.contacts;
+    }
+    g0 = g1;
+  }
+}
+
+}  // namespace softcontact::collide

@@ -1,0 +1,105 @@
+#pragma once
+// Edge-edge contacts between bodies (docs/collision.md, "Edge contacts"; docs/contact.md
+// gives the response). Vertex-in-tet detection sees a contact only once a vertex is
+// inside another body; two surfaces that meet edge on edge cross without that. Per step,
+// at x~:
+//  1. candidate edges: the surface edges of owned objects whose box meets a partner
+//     object's box; cut into pieces no longer than a grid cell, their pieces' midpoints
+//     go into a uniform grid (the spatial hash of the vertex test, spatial_hash.hpp);
+//  2. every surface triangle of another object near a candidate asks the grid for the
+//     pieces within half a cell of its box, and tests their edges exactly: a
+//     crossing is a strict sign change of the edge's endpoints against the triangle's
+//     plane with the line through the edge inside the triangle (three signed volumes of
+//     one sign);
+//  3. per (edge e1 of A, body B), crossings in order along e1 pair up as (entering,
+//     exiting); skipped when an endpoint of e1 is already a vertex collision with B (the
+//     vertex response removes that overlap);
+//  4. a pair whose entry and exit triangles share an edge e2 of B is an edge-edge
+//     contact (e1, e2): e1 cuts through B under e2. n is e1 x e2, turned to B's outside
+//     (the sum of the two triangles' normals), P1 on e1 and P2 on e2 the closest points
+//     of the two lines at parameters s and u, and the depth is n . (P2 - P1) > 0: e1
+//     must move that far along n (or e2 back) for the two edges to touch instead of
+//     crossing.
+//  5. otherwise no record (counted as unpaired): the triangles share a vertex or nothing
+//     (e1 passes through a fold of B's surface), e1 and e2 are parallel (aligned rims),
+//     or the depth above is not positive. A rule for these that moved the middle of e1's
+//     inside part to the nearer triangle was tried and made an aligned stack worse
+//     (docs/collision.md, "Edge contacts").
+// The record is a Collision whose point side is the edge (point a, point2 b, weights
+// 1 - s and s) and whose "triangle" side is e2 (c, d, weights 1 - u and u; the third
+// entry repeats c with weight 0). The same interlock is usually found again from B's
+// side (e2 through A's two triangles at e1), a mirror record with the same pushes on
+// the same four vertices; the response's shares (docs/contact.md) split such a vertex
+// two ways, so the pair is corrected once, not twice.
+//
+// Keys: point_gid = gid(a), triangle_gid = global_triangles * (1 + gid(b)) + gid(T_in):
+// never a real triangle's id, unique per (edge, entry triangle), independent of ranks.
+#include <cstdint>
+#include <vector>
+
+#include "collision_topology.hpp"
+#include "spatial_hash.hpp"
+#include "softcontact/collision.hpp"
+
+namespace softcontact::collide {
+
+/// The surface edges of every object, built once: each edge of a surface triangle,
+/// once, with the (one or two) surface triangles it borders.
+struct SurfaceEdges {
+  std::vector<index_t> a, b;               ///< endpoints (local), a < b
+  std::vector<index_t> tri0, tri1;         ///< bordering surface triangles (rows of World::triangles); tri1 -1 if none
+  std::vector<std::size_t> object_begin;   ///< edges of slot k: [object_begin[k], object_begin[k + 1])
+  double max_length = 0;                   ///< longest edge at construction [m] (diagnostic)
+};
+
+SurfaceEdges build_surface_edges(const World& w, const CollisionTopology& topo);
+
+struct EdgeCounters {
+  std::int64_t crossings = 0;   ///< surface edge / surface triangle crossings between bodies
+  std::int64_t contacts = 0;    ///< edge-edge records
+  std::int64_t unpaired = 0;    ///< crossing pairs left without a record
+};
+
+/// What the vertex detector already computed this step (collision_detector.cpp).
+struct EdgeSearchInput {
+  const World* world = nullptr;
+  const CollisionTopology* topo = nullptr;
+  const SurfaceEdges* edges = nullptr;
+  const std::uint8_t* bad_vertex = nullptr;                         ///< (n_local)
+  const std::vector<Box>* object_box = nullptr;                     ///< per slot
+  const std::vector<std::vector<std::int32_t>>* partners = nullptr;  ///< per slot
+  double cell_size = 0;
+};
+
+class EdgeContactFinder {
+public:
+  /// Appends the edge-edge records to `out` (which holds this step's vertex records:
+  /// edges with an endpoint among them, against the same body, are skipped). `out` is not
+  /// re-sorted here.
+  void find(const EdgeSearchInput& in, std::vector<Collision>& out, EdgeCounters& counters);
+
+private:
+  struct Crossing {
+    std::uint32_t edge;   // candidate index
+    std::int32_t slot;    // object slot of the triangle
+    index_t tri;          // row of World::triangles
+    double t;             // parameter along the edge, a -> b
+    bool entering;        // a on the triangle's outer side
+  };
+  SpatialHash grid_;
+  std::vector<std::size_t> cand_;          // candidate edges (indices into SurfaceEdges)
+  std::vector<std::int32_t> cand_slot_;
+  std::vector<double> cand_pq_;            // candidates' endpoints (candidates, 6): contiguous for the tests
+  std::vector<index_t> cand_index_;        // 0 .. candidates - 1
+  std::vector<double> mid_;                // midpoints of the candidates' pieces (pieces, 3)
+  std::vector<std::uint32_t> seg_edge_;    // candidate of each piece
+  std::vector<std::int32_t> seg_slot_;     // object slot of each piece
+  std::vector<Box> cand_box_;              // per slot: box of its candidate edges
+  std::vector<Box> tri_box_;               // per slot: where its triangles can meet a candidate
+  std::vector<std::vector<Crossing>> buf_;
+  std::vector<std::vector<std::uint32_t>> passed_;  // per thread: pieces that passed the box test
+  std::vector<Crossing> crossings_;
+  std::vector<std::pair<index_t, std::int32_t>> vertex_records_;  // (point, other object) of vertex records
+};
+
+}  // namespace softcontact::collide
