@@ -292,12 +292,7 @@ void CollisionDetector::Impl::select_points(const World& w) {
       for (std::int32_t a : partners[b]) {
         const Box& pa = point_box[static_cast<std::size_t>(a)];
         if (pa.empty() || !pa.overlaps(object_box[b])) continue;
-        Box cut;
-        for (int d = 0; d < 3; ++d) {
-          cut.lo[d] = std::max(pa.lo[d], object_box[b].lo[d]);
-          cut.hi[d] = std::min(pa.hi[d], object_box[b].hi[d]);
-        }
-        fb.add(cut);
+        fb.add(pa.intersection(object_box[b]));
       }
     }
     foreign_box[b] = fb;

@@ -42,11 +42,12 @@ SurfaceEdges build_surface_edges(const World& w, const CollisionTopology& topo) 
 
 namespace {
 
-// Strict crossing of segment pq with triangle abc (outward order): the endpoints on
-// opposite sides of the plane and the line through p and q inside the triangle. t is the
-// parameter of the crossing along p -> q; entering when p is on the outer side.
-bool crosses(const V3& p, const V3& q, const V3& a, const V3& b, const V3& c, double& t, bool& entering) {
-  const double sp = orient(a, b, c, p), sq = orient(a, b, c, q);
+// Strict crossing of segment pq with triangle abc (outward order), given the endpoints'
+// signed volumes sp, sq against it (orient(a, b, c, p), orient(a, b, c, q)): the endpoints
+// on opposite sides of the plane and the line through p and q inside the triangle. t is
+// the parameter of the crossing along p -> q; entering when p is on the outer side.
+bool crosses(const V3& p, const V3& q, const V3& a, const V3& b, const V3& c, double sp, double sq, double& t,
+             bool& entering) {
   if (!((sp > 0 && sq < 0) || (sp < 0 && sq > 0))) return false;
   const double v0 = orient(p, q, b, c), v1 = orient(p, q, c, a), v2 = orient(p, q, a, b);
   if (!((v0 > 0 && v1 > 0 && v2 > 0) || (v0 < 0 && v1 < 0 && v2 < 0))) return false;
@@ -134,12 +135,7 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
     for (std::int32_t a : partners[b]) {
       const Box& ca = cand_box_[static_cast<std::size_t>(a)];
       if (ca.empty() || !ca.overlaps(obox[b])) continue;
-      Box cut;
-      for (int d = 0; d < 3; ++d) {
-        cut.lo[d] = std::max(ca.lo[d], obox[b].lo[d]);
-        cut.hi[d] = std::min(ca.hi[d], obox[b].hi[d]);
-      }
-      fb.add(cut);
+      fb.add(ca.intersection(obox[b]));
     }
     tri_box_[b] = fb;
   }
@@ -163,17 +159,6 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
     box.add(b);
     box.add(c);
     if (!box.overlaps(tri_box_[static_cast<std::size_t>(slot)])) return;
-    // Only a triangle inside the box of a partner object (whose edges are candidates
-    // there) can be crossed: in a pile the union above is most of the object.
-    bool near = false;
-    for (std::int32_t p : partners[static_cast<std::size_t>(slot)]) {
-      const Box& cb = cand_box_[static_cast<std::size_t>(p)];
-      if (!cb.empty() && cb.overlaps(box) && obox[static_cast<std::size_t>(p)].overlaps(box)) {
-        near = true;
-        break;
-      }
-    }
-    if (!near) return;
     for (int d = 0; d < 3; ++d) {
       box.lo[static_cast<std::size_t>(d)] -= half;
       box.hi[static_cast<std::size_t>(d)] += half;
@@ -218,10 +203,9 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
         if (apart) continue;
         const V3 p{pq[0], pq[1], pq[2]}, q{pq[3], pq[4], pq[5]};
         const double sp = dot(p - a, nrm), sq = dot(q - a, nrm);
-        if (!((sp > 0 && sq < 0) || (sp < 0 && sq > 0))) continue;
         double tc;
         bool entering;
-        if (!crosses(p, q, a, b, c, tc, entering)) continue;
+        if (!crosses(p, q, a, b, c, sp, sq, tc, entering)) continue;
         mine.push_back({i, slot, static_cast<index_t>(r), tc, entering});
       }
     };

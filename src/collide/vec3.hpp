@@ -62,6 +62,15 @@ struct Box {
     return lo[0] <= b.hi[0] && b.lo[0] <= hi[0] && lo[1] <= b.hi[1] && b.lo[1] <= hi[1] && lo[2] <= b.hi[2] &&
            b.lo[2] <= hi[2];
   }
+  /// The common part of two overlapping boxes.
+  Box intersection(const Box& b) const {
+    Box c;
+    for (int d = 0; d < 3; ++d) {
+      c.lo[d] = lo[d] > b.lo[d] ? lo[d] : b.lo[d];
+      c.hi[d] = hi[d] < b.hi[d] ? hi[d] : b.hi[d];
+    }
+    return c;
+  }
   bool contains(const V3& p) const {
     return p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1] && p[2] >= lo[2] && p[2] <= hi[2];
   }
