@@ -10,13 +10,9 @@ cells in (r, theta, y), every cell split into the six tets of the Kuhn triangula
 tet is written positively oriented. 4 x 4 x 4 cells give 384 tets per stone, close to
 the paper's 375.
 
-Alternate stones (the even ones: springers and keystone) are larger by `step` on every
-radial and depth side. A joint between two stones then never has their rims exactly on
-top of each other: the smaller stone's rim vertices lie inside the larger stone's joint
-face, where vertex-in-tet detection sees them, and the larger stone's rim vertices face
-air. With exactly aligned rims the rim vertices slide along the other stone's side face
-and are never detected (docs/contact.md, "Limits"). Real masonry arches often have such
-stepped voussoirs.
+All stones have the same cross-section, so at every joint the two stones' rims lie
+exactly on top of each other. (Until issue 15 the even stones were 2.5 mm larger on every
+side, so that no rims were aligned: vertex-in-tet detection alone sees aligned rims late.)
 
 Joint faces are exact radial planes: both stones evaluate the same angle, so they touch
 without overlapping at the start.
@@ -33,10 +29,9 @@ import numpy as np
 
 # Geometry [m], chosen in inputs/archway.yaml's header comment.
 N_STONES = 9          # odd, so that there is a keystone
-R_IN = 0.12           # intrados radius of the odd stones
+R_IN = 0.12           # intrados radius
 R_OUT = 0.18          # extrados radius: thickness 0.06, mean radius 0.15, t/R = 0.4
-DEPTH = 0.06          # extent along y of the odd stones
-STEP = 0.0025         # the even stones are larger by this on each side (a quarter cell)
+DEPTH = 0.06          # extent along y
 CELLS = (4, 4, 4)     # cells along r, theta, y
 
 
@@ -55,11 +50,10 @@ def kuhn_tets():
 
 def voussoir(k, n=N_STONES, cells=CELLS, r_in=R_IN, r_out=R_OUT):
     """Vertices (V,3) and positively oriented tets (T,4, 0-based) of stone k."""
-    grow = STEP if k % 2 == 0 else 0.0
     nr, nt, ny = cells
-    r = np.linspace(r_in - grow, r_out + grow, nr + 1)
+    r = np.linspace(r_in, r_out, nr + 1)
     th = np.linspace(k * math.pi / n, (k + 1) * math.pi / n, nt + 1)
-    y = np.linspace(-DEPTH / 2 - grow, DEPTH / 2 + grow, ny + 1)
+    y = np.linspace(-DEPTH / 2, DEPTH / 2, ny + 1)
     # Joint faces must be exactly the same plane for both neighbours: the end angles
     # are computed once, from the same expression, for every stone.
     th[0], th[-1] = k * math.pi / n, (k + 1) * math.pi / n
