@@ -52,7 +52,7 @@ struct CollisionStats {
   std::int64_t deep_fallbacks = 0;      ///< regions with no border point: entry rule or nearest-triangle fallback
   std::int64_t entry_records = 0;       ///< records resolved towards where the point entered B (penetration_depth.hpp, item 5)
   std::int64_t redirected_depths = 0;   ///< consistent depths more than twice the nearest surface distance, replaced (item 6)
-  std::int64_t self_collisions = 0;     ///< vertices inside a non-incident tet of their own object (no records)
+  std::int64_t self_collisions = 0;     ///< vertices inside a tet of their own object away from their star (records: self-contact)
   std::int64_t edge_crossings = 0;      ///< surface edge / surface triangle crossings between bodies at x~
   std::int64_t edge_contacts = 0;       ///< edge-edge records among `collisions`
   std::int64_t edge_unpaired = 0;       ///< crossing pairs left without a record
@@ -68,7 +68,7 @@ struct CollisionStats {
 };
 
 struct CollisionSettings {
-  bool self_collisions = false;  ///< detect (and report) self-collisions; responding to them is beyond the paper
+  bool self_collisions = false;  ///< self-contact: a body's surface vertices against its own tets away from their star, with records
   bool edge_contacts = false;    ///< edge-edge contacts between bodies (docs/collision.md, "Edge contacts")
   double cell_size = 0;          ///< grid cell size [m]; 0: the average edge length of all tets
 };

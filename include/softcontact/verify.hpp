@@ -16,7 +16,14 @@
 //    closed tet of B (barycentric coordinates >= -1e-12) and its distance to B's surface
 //    exceeds 1e-9 h. Its *depth* is that distance: the minimum over B's surface triangles
 //    of the exact point-triangle distance. A vertex inside several bodies counts once,
-//    with the largest depth. Self-contact is not checked.
+//    with the largest depth.
+//  - A surface vertex of body A is *inside itself* (self-contact) when it lies in a closed
+//    tet of A that shares no vertex with its star (the vertex and its mesh neighbours;
+//    in a mesh with no inverted tet no vertex lies in another tet, so only a fold of A
+//    onto itself puts it there) and its distance to A's surface triangles that touch no
+//    vertex of the star exceeds 1e-9 h. That distance is its self depth: the surface
+//    near the vertex is left out, so the depth is the true one up to about one edge and
+//    at most about one edge beyond that.
 //  - A *crossing* is a pair (surface edge of A, surface triangle of B) where the edge's
 //    endpoints lie on opposite sides of the triangle's plane, each farther from it than
 //    1e-9 h, and the crossing point inside the closed triangle (barycentric coordinates
@@ -59,6 +66,8 @@ struct VerifyMesh {
   std::vector<gid_t> edges;                    ///< (e,2) the surface's edges, once each, a < b, sorted
   std::vector<gid_t> object_triangle_begin;    ///< (objects+1) CSR of object_triangles
   std::vector<gid_t> object_triangles;         ///< surface triangles of each body, ascending
+  std::vector<gid_t> neighbour_begin;          ///< (n+1) CSR of neighbours
+  std::vector<gid_t> neighbours;               ///< mesh (tet edge) neighbours of each vertex, ascending
   double median_edge = 0;                      ///< median over tets of their six rest edge lengths [m]
 
   std::size_t num_vertices() const { return vertex_object.size(); }
@@ -94,6 +103,7 @@ struct VerifyOptions {
   bool interior = true;          ///< also vertices that are not on a surface
   bool crossings = true;         ///< surface edge / surface triangle crossings
   double free_fall_speed = 0;    ///< v_ff [m/s] for VerifyFrame::speed_ratio
+  bool self = true;              ///< surface vertices inside their own body (self-contact)
 };
 
 /// Vertices inside other bodies (surface or interior ones).
@@ -127,6 +137,7 @@ struct VerifyFrame {
   double median_edge = 0;        ///< h [m]
   InsideStats surface;           ///< surface vertices inside other bodies
   InsideStats interior;          ///< interior vertices inside other bodies (with VerifyOptions::interior)
+  InsideStats self;              ///< surface vertices inside their own body (with VerifyOptions::self)
   CrossingStats crossings;       ///< with VerifyOptions::crossings
   std::int64_t inverted = 0;     ///< inverted or flat tets
   gid_t first_inverted = -1;     ///< the lowest such tet id
@@ -137,6 +148,7 @@ struct VerifyFrame {
 
   double surface_depth() const { return surface.max_depth / median_edge; }    ///< in median edges
   double interior_depth() const { return interior.max_depth / median_edge; }  ///< in median edges
+  double self_depth() const { return self.max_depth / median_edge; }          ///< in median edges
   double crossing_depth() const { return crossings.max_depth / median_edge; } ///< in median edges
 };
 static_assert(std::is_trivially_copyable_v<VerifyFrame>, "VerifyFrame is broadcast as bytes");
@@ -157,6 +169,7 @@ struct VerifyMaxima {
   std::int64_t checks = 0;
   VerifyPeak surface_count, surface_depth;     ///< depth in median edges
   VerifyPeak interior_count, interior_depth;
+  VerifyPeak self_count, self_depth;
   VerifyPeak crossings, crossings_without_inside_vertex, crossing_depth;
   VerifyPeak inverted, nonfinite, max_speed, speed_ratio;
   VerifyFrame deepest;                         ///< the check with the deepest surface vertex
@@ -173,6 +186,7 @@ std::string to_json(const VerifyMaxima& m);
 struct VerifyThresholds {
   double max_depth = 0.005;            ///< surface-vertex depth, in median edges, every frame
   double max_interior_depth = -1;      ///< interior-vertex depth, in median edges (unlimited)
+  double max_self_depth = -1;          ///< self depth of a surface vertex, in median edges, every frame (unlimited)
   std::int64_t max_crossings = -1;     ///< crossings per frame (unlimited)
   std::int64_t max_inverted = 0;       ///< inverted tets at the last checked frame
   double max_speed_ratio = 3;          ///< max speed / v_ff, every frame

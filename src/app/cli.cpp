@@ -128,7 +128,8 @@ const char* kVerifyHelp =
     "\n"
     "Checks the frames a run wrote, independently of the collision detector: surface and\n"
     "interior vertices inside other bodies and how deep (distance to that body's surface),\n"
-    "surface edges through other bodies' surface triangles, inverted tets, and the fastest\n"
+    "surface edges through other bodies' surface triangles, surface vertices inside their own\n"
+    "body away from their neighbours (self-contact), inverted tets, and the fastest\n"
     "vertex against the free-fall speed v_ff = sqrt(v0^2 + 2 |g| H) of the scene. Depths are\n"
     "in median tet edge lengths h. One line per frame, a summary, and a JSON file.\n"
     "\n"
@@ -137,6 +138,8 @@ const char* kVerifyHelp =
     "  --skip-frames-before T   do not check frames before simulated time T [s]\n"
     "  --max-depth F            largest surface-vertex depth, in h (default 0.005)\n"
     "  --max-interior-depth F   largest interior-vertex depth, in h (default: none)\n"
+    "  --max-self-depth F       largest depth of a surface vertex in its own body, in h\n"
+    "                           (default: none)\n"
     "  --max-crossings N        most surface crossings in a frame (default: none)\n"
     "  --max-inverted N         most inverted tets at the last checked frame (default 0)\n"
     "  --max-speed-ratio R      largest speed / v_ff (default 3)\n"
@@ -448,6 +451,7 @@ int cmd_verify(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& er
   }
   if (auto v = value("--max-depth")) opt.thresholds.max_depth = parse_limit("--max-depth", *v);
   if (auto v = value("--max-interior-depth")) opt.thresholds.max_interior_depth = parse_limit("--max-interior-depth", *v);
+  if (auto v = value("--max-self-depth")) opt.thresholds.max_self_depth = parse_limit("--max-self-depth", *v);
   if (auto v = value("--max-crossings")) opt.thresholds.max_crossings = parse_nonnegative("--max-crossings", *v, "verify");
   if (auto v = value("--max-inverted")) opt.thresholds.max_inverted = parse_nonnegative("--max-inverted", *v, "verify");
   if (auto v = value("--max-speed-ratio")) opt.thresholds.max_speed_ratio = parse_limit("--max-speed-ratio", *v);
@@ -531,7 +535,7 @@ int dispatch(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out
   }
   if (cmd == "verify") {
     const Args a = parse_args(argc, argv, 2, "verify",
-                              {"--frames", "--max-depth", "--max-interior-depth", "--max-crossings", "--max-inverted",
+                              {"--frames", "--max-depth", "--max-interior-depth", "--max-self-depth", "--max-crossings", "--max-inverted",
                                "--max-speed-ratio", "--json", "--skip-frames-before"},
                               {});
     return a.help ? say(kVerifyHelp) : cmd_verify(a, comm, out, err);

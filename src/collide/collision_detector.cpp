@@ -164,7 +164,8 @@ private:
   void find_partners(const double* x);
   void select_points(const World& w);
   void narrow_phase(const World& w, CollisionStats& st);
-  void group_pairs(CollisionStats& st);
+  void group_pairs(const World& w, CollisionStats& st);
+  bool away_from_star(const World& w, index_t v, index_t t) const;
   void depth(const World& w, const double* x_prev, std::vector<Collision>& out, CollisionStats& st);
 };
 
@@ -362,18 +363,34 @@ void CollisionDetector::Impl::narrow_phase(const World& w, CollisionStats& st) {
   std::sort(hits.begin(), hits.end());  // (point, tet): independent of the schedule
 }
 
+// Tet `t` shares no vertex with v or v's mesh neighbours.
+bool CollisionDetector::Impl::away_from_star(const World& w, index_t v, index_t t) const {
+  const auto u = static_cast<std::size_t>(v);
+  const auto nb0 = topo.edge_to.begin() + static_cast<std::ptrdiff_t>(topo.edge_begin[u]);
+  const auto nb1 = topo.edge_to.begin() + static_cast<std::ptrdiff_t>(topo.edge_begin[u + 1]);
+  for (int c = 0; c < 4; ++c) {
+    const index_t q = w.tets[4 * static_cast<std::size_t>(t) + static_cast<std::size_t>(c)];
+    if (q == v || std::binary_search(nb0, nb1, q)) return false;
+  }
+  return true;
+}
+
 // Step 5: (point, other object) pairs with the lowest tet holding the point; groups of
-// equal (A, B).
-void CollisionDetector::Impl::group_pairs(CollisionStats& st) {
+// equal (A, B). With self-collisions on, a point inside its own object away from its
+// star makes an (A, A) pair too: self-contact.
+void CollisionDetector::Impl::group_pairs(const World& w, CollisionStats& st) {
   pairs.clear();
   index_t last_self = -1;
   for (const Hit& h : hits) {
     const std::int32_t a = topo.vertex_slot[static_cast<std::size_t>(h.point)];
     const std::int32_t b = topo.tet_slot[static_cast<std::size_t>(h.tet)];
     if (a == b) {
-      if (h.point != last_self) ++st.self_collisions;
+      // Self-contact: only a tet that shares no vertex with the point's star (the point
+      // and its mesh neighbours) is the other side of a fold; a tet next to the star
+      // holds the point only where elements around it are inverted.
+      if (h.point == last_self || !away_from_star(w, h.point, h.tet)) continue;
+      ++st.self_collisions;
       last_self = h.point;
-      continue;
     }
     // Hits of one point are sorted by tet: the first of each object is its lowest tet.
     bool seen = false;
@@ -485,7 +502,7 @@ void CollisionDetector::Impl::detect(const World& w, const double* x_prev, std::
   find_partners(w.x.data());
   select_points(w);
   narrow_phase(w, st);
-  group_pairs(st);
+  group_pairs(w, st);
   st.detection_seconds = seconds_since(t0);
   const auto t1 = std::chrono::steady_clock::now();
   depth(w, x_prev, out, st);

@@ -19,17 +19,25 @@ std::ptrdiff_t position_of(const InsidePoint* pts, std::size_t n, index_t v) {
   return it != pts + n && it->point == v ? it - pts : -1;
 }
 
+// A walk that left B through a skipped triangle (self-contact: the point's own
+// neighbourhood) counts as failed: the hierarchy, which skips them, decides.
+bool usable(const WalkResult& r, const index_t* tri, const SkipVertices& skip) {
+  return r.status != WalkResult::failed &&
+         !(r.status == WalkResult::exited && skip.touches(tri + 3 * static_cast<std::size_t>(r.triangle)));
+}
+
 // Where the border edge p -> q leaves B: the tet walk, or (walk failed) the first
 // crossing with B's surface, ties to the lower triangle.
 WalkResult border_crossing(const DepthInput& in, const SurfaceBvh& bvh, const TetPlanes& start, const V3& p,
-                           const V3& q, DepthCounters& c, DepthScratch& s) {
+                           const V3& q, DepthCounters& c, DepthScratch& s, const SkipVertices& skip) {
   const World& w = *in.world;
   WalkResult r = walk_to_surface(in.x, w.tets.data(), in.topo->face_neighbour.data(), w.triangles.data(), start, p, q,
                                  in.max_walk);
-  if (r.status != WalkResult::failed) return r;
+  if (usable(r, w.triangles.data(), skip)) return r;
+  r = WalkResult{};
   ++c.surface_searches;
   s.hits.clear();
-  bvh.segment_hits(in.x, w.triangles.data(), p, q, s.hits, c.degenerate);
+  bvh.segment_hits(in.x, w.triangles.data(), p, q, s.hits, c.degenerate, skip);
   for (const SurfaceBvh::Hit& h : s.hits)
     if (r.status != WalkResult::exited || h.t < r.t || (h.t == r.t && h.triangle < r.triangle)) {
       r.status = WalkResult::exited;
@@ -57,7 +65,7 @@ struct RayPick {
 // T_i: the surface triangle crossed by the ray x~_i + s r_i, nearest to s = D_i; `at`
 // receives the distance s of that crossing (0 when none was found).
 index_t ray_triangle(const DepthInput& in, std::int32_t b, index_t tet, const V3& xi, const V3& r, double D,
-                     double& at, DepthCounters& c, DepthScratch& s) {
+                     double& at, DepthCounters& c, DepthScratch& s, const SkipVertices& skip) {
   const World& w = *in.world;
   const SurfaceBvh& bvh = in.bvh[b];
   const Box& box = in.object_box[b];
@@ -66,21 +74,21 @@ index_t ray_triangle(const DepthInput& in, std::int32_t b, index_t tet, const V3
   const WalkResult wr = walk_to_surface(in.x, w.tets.data(), in.topo->face_neighbour.data(), w.triangles.data(), tet, xi,
                                         xi + reach * r, in.max_walk);
   RayPick pick;
-  if (wr.status == WalkResult::exited) {
+  if (wr.status == WalkResult::exited && usable(wr, w.triangles.data(), skip)) {
     const double s1 = wr.t * reach;
     pick.offer(s1, wr.triangle, D);
     if (D > s1 + in.tiny) {
       // A crossing after the first exit can only be nearer to D if it lies before 2D - s1.
       const double len = 2 * D - s1;
       s.hits.clear();
-      bvh.segment_hits(in.x, w.triangles.data(), xi, xi + len * r, s.hits, c.degenerate);
+      bvh.segment_hits(in.x, w.triangles.data(), xi, xi + len * r, s.hits, c.degenerate, skip);
       for (const SurfaceBvh::Hit& h : s.hits)
         if (h.t * len > s1) pick.offer(h.t * len, h.triangle, D);
     }
   } else {
     ++c.surface_searches;
     s.hits.clear();
-    bvh.segment_hits(in.x, w.triangles.data(), xi, xi + reach * r, s.hits, c.degenerate);
+    bvh.segment_hits(in.x, w.triangles.data(), xi, xi + reach * r, s.hits, c.degenerate, skip);
     for (const SurfaceBvh::Hit& h : s.hits) pick.offer(h.t * reach, h.triangle, D);
   }
   at = pick.triangle >= 0 ? pick.s : 0;
@@ -90,12 +98,12 @@ index_t ray_triangle(const DepthInput& in, std::int32_t b, index_t tet, const V3
 // The entry rule (item 5 above): where the segment x~_i -> x^t_i crosses B's surface
 // first, when it crosses an odd number of times. False when it does not apply.
 bool entry_point(const DepthInput& in, std::int32_t b, index_t i, const V3& xi, DepthCounters& c, DepthScratch& s,
-                 index_t& triangle, V3& d, std::array<double, 3>& weight) {
+                 const SkipVertices& skip, index_t& triangle, V3& d, std::array<double, 3>& weight) {
   if (!in.x_prev) return false;
   const V3 xp = load(in.x_prev, i);
   if (norm2(xp - xi) <= in.tiny * in.tiny) return false;
   s.hits.clear();
-  in.bvh[b].segment_hits(in.x, in.world->triangles.data(), xi, xp, s.hits, c.degenerate);
+  in.bvh[b].segment_hits(in.x, in.world->triangles.data(), xi, xp, s.hits, c.degenerate, skip);
   if (s.hits.size() % 2 == 0) return false;
   const SurfaceBvh::Hit* first = &s.hits[0];
   for (const SurfaceBvh::Hit& h : s.hits)
@@ -116,6 +124,17 @@ void penetration_depth(const DepthInput& in, std::int32_t b, const InsidePoint* 
   const index_t* tri = w.triangles.data();
   const SurfaceBvh& bvh = in.bvh[b];
   const double tiny2 = in.tiny * in.tiny;
+  // Self-contact (A == B): the searches skip the triangles that touch the point or one
+  // of its mesh neighbours, its own side of the fold.
+  const bool self = count > 0 && topo.vertex_slot[static_cast<std::size_t>(pts[0].point)] == b;
+  auto skip_of = [&](index_t i) {
+    if (!self) return SkipVertices{};
+    const auto v = static_cast<std::size_t>(i);
+    s.skip.assign(1, i);
+    s.skip.insert(s.skip.end(), topo.edge_to.begin() + static_cast<std::ptrdiff_t>(topo.edge_begin[v]),
+                  topo.edge_to.begin() + static_cast<std::ptrdiff_t>(topo.edge_begin[v + 1]));
+    return SkipVertices{s.skip.data(), s.skip.size()};
+  };
 
   // Neighbours of each point over A's mesh edges, split into those inside B (by
   // position) and those not (by vertex), both ascending.
@@ -148,13 +167,14 @@ void penetration_depth(const DepthInput& in, std::int32_t b, const InsidePoint* 
     V3 sn{0, 0, 0}, best_n{0, 0, 0};
     if (s.out_begin[k] == s.out_begin[k + 1]) continue;
     const TetPlanes start = prepare_walk(x, w.tets.data(), pts[k].tet, xi);  // shared by the point's edges
+    const SkipVertices skip = skip_of(pts[k].point);
     for (std::size_t e = s.out_begin[k]; e < s.out_begin[k + 1]; ++e) {
       const V3 xk = load(x, s.out_nb[e]);
       if (norm2(xk - xi) <= tiny2) {  // zero-length edge: no direction to search along
         ++c.degenerate;
         continue;
       }
-      const WalkResult wr = border_crossing(in, bvh, start, xi, xk, c, s);
+      const WalkResult wr = border_crossing(in, bvh, start, xi, xk, c, s, skip);
       if (wr.status != WalkResult::exited) continue;  // k is inside B as well: no border edge
       const V3 n = interpolated_normal(x, tri, in.normals, wr.triangle, wr.bary);
       if (is_zero(n)) {
@@ -244,6 +264,7 @@ void penetration_depth(const DepthInput& in, std::int32_t b, const InsidePoint* 
     Collision& rec = out[k];
     const index_t i = pts[k].point;
     const V3 xi = load(x, i);
+    const SkipVertices skip = skip_of(i);
     rec.point = i;
     rec.point_gid = w.vertex_gid[static_cast<std::size_t>(i)];
     rec.object = w.vertex_object[static_cast<std::size_t>(i)];
@@ -259,7 +280,7 @@ void penetration_depth(const DepthInput& in, std::int32_t b, const InsidePoint* 
       // two or fall short of it).
       double at = 0;
       const double D = std::max(s.depth[k], 0.0);
-      t = ray_triangle(in, b, pts[k].tet, xi, s.dir[k], D, at, c, s);
+      t = ray_triangle(in, b, pts[k].tet, xi, s.dir[k], D, at, c, s, skip);
       if (t >= 0) {
         d = at * s.dir[k];
         projected = resolved = true;
@@ -270,7 +291,7 @@ void penetration_depth(const DepthInput& in, std::int32_t b, const InsidePoint* 
         index_t te = -1;
         V3 de{0, 0, 0};
         std::array<double, 3> we{};
-        if (at > in.check_depth && entry_point(in, b, i, xi, c, s, te, de, we) && 4 * norm2(de) < at * at) {
+        if (at > in.check_depth && entry_point(in, b, i, xi, c, s, skip, te, de, we) && 4 * norm2(de) < at * at) {
           t = te;
           d = de;
           rec.weight = we;
@@ -281,10 +302,10 @@ void penetration_depth(const DepthInput& in, std::int32_t b, const InsidePoint* 
       }
     }
     // Deep sets and rays without an exit: the entry rule, else the nearest triangle.
-    if (!resolved && entry_point(in, b, i, xi, c, s, t, d, rec.weight)) {
+    if (!resolved && entry_point(in, b, i, xi, c, s, skip, t, d, rec.weight)) {
       ++c.entry_records;
     } else if (!resolved) {
-      const SurfaceBvh::Nearest nr = bvh.nearest(x, tri, xi, c.degenerate);
+      const SurfaceBvh::Nearest nr = bvh.nearest(x, tri, xi, c.degenerate, skip);
       t = nr.triangle;
       d = nr.point - xi;
       rec.weight = nr.bary;

@@ -87,6 +87,7 @@ struct DepthScratch {
   std::vector<V3> dir;
   std::vector<std::size_t> frontier, next;
   std::vector<SurfaceBvh::Hit> hits;
+  std::vector<index_t> skip;               // self-contact: the point and its mesh neighbours
 };
 
 /// Penetration records of the points `pts` (ascending by point; all of one object A)

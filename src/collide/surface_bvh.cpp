@@ -123,7 +123,7 @@ void SurfaceBvh::refit(const double* x, const index_t* tri) {
 }
 
 void SurfaceBvh::segment_hits(const double* x, const index_t* tri, const V3& p, const V3& q, std::vector<Hit>& hits,
-                              std::int64_t& degenerate) const {
+                              std::int64_t& degenerate, const SkipVertices& skip) const {
   if (nodes_.empty()) return;
   const V3 d = q - p;
   std::int32_t stack[kMaxDepth];
@@ -141,6 +141,7 @@ void SurfaceBvh::segment_hits(const double* x, const index_t* tri, const V3& p, 
     for (std::int32_t k = 0; k < n.count; ++k) {
       const index_t r = order_[static_cast<std::size_t>(n.first + k)];
       const index_t* t = tri + 3 * static_cast<std::size_t>(r);
+      if (skip.touches(t)) continue;
       const V3 a = load(x, t[0]), b = load(x, t[1]), c = load(x, t[2]);
       if (triangle_degenerate(a, b, c)) {
         ++degenerate;
@@ -155,8 +156,8 @@ void SurfaceBvh::segment_hits(const double* x, const index_t* tri, const V3& p, 
   }
 }
 
-SurfaceBvh::Nearest SurfaceBvh::nearest(const double* x, const index_t* tri, const V3& p,
-                                        std::int64_t& degenerate) const {
+SurfaceBvh::Nearest SurfaceBvh::nearest(const double* x, const index_t* tri, const V3& p, std::int64_t& degenerate,
+                                        const SkipVertices& skip) const {
   Nearest best;
   if (nodes_.empty()) return best;
   best.dist2 = std::numeric_limits<double>::infinity();
@@ -183,6 +184,7 @@ SurfaceBvh::Nearest SurfaceBvh::nearest(const double* x, const index_t* tri, con
     for (std::int32_t k = 0; k < n.count; ++k) {
       const index_t r = order_[static_cast<std::size_t>(n.first + k)];
       const index_t* t = tri + 3 * static_cast<std::size_t>(r);
+      if (skip.touches(t)) continue;
       const V3 a = load(x, t[0]), b = load(x, t[1]), c = load(x, t[2]);
       if (triangle_degenerate(a, b, c)) ++degenerate;
       std::array<double, 3> bary{};

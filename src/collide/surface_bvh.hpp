@@ -16,6 +16,18 @@
 
 namespace softcontact::collide {
 
+/// Vertices whose triangles a search skips (self-contact: a vertex and its mesh
+/// neighbours, whose own surface is not "the other side"). Empty by default.
+struct SkipVertices {
+  const index_t* v = nullptr;
+  std::size_t n = 0;
+  bool touches(const index_t* t) const {
+    for (std::size_t k = 0; k < n; ++k)
+      if (t[0] == v[k] || t[1] == v[k] || t[2] == v[k]) return true;
+    return false;
+  }
+};
+
 class SurfaceBvh {
 public:
   /// `x` (n,3) positions, `tri` (s,3) the World's triangles, `triangles` the rows that
@@ -32,9 +44,9 @@ public:
   };
   /// Appends every crossing of the segment p + t (q - p), t in [0, 1], with the surface
   /// to `hits`, in traversal order (fixed for fixed input). Degenerate triangles met are
-  /// skipped and counted in `degenerate`.
+  /// skipped and counted in `degenerate`; triangles touching a `skip` vertex are skipped.
   void segment_hits(const double* x, const index_t* tri, const V3& p, const V3& q, std::vector<Hit>& hits,
-                    std::int64_t& degenerate) const;
+                    std::int64_t& degenerate, const SkipVertices& skip = {}) const;
 
   struct Nearest {
     index_t triangle = -1;         ///< -1 only for an empty tree
@@ -42,8 +54,10 @@ public:
     std::array<double, 3> bary{};  ///< its barycentric coordinates on the triangle
     double dist2 = 0;              ///< squared distance [m^2]
   };
-  /// The surface triangle nearest to p (ties: lower triangle index).
-  Nearest nearest(const double* x, const index_t* tri, const V3& p, std::int64_t& degenerate) const;
+  /// The surface triangle nearest to p (ties: lower triangle index), among those not
+  /// touching a `skip` vertex.
+  Nearest nearest(const double* x, const index_t* tri, const V3& p, std::int64_t& degenerate,
+                  const SkipVertices& skip = {}) const;
 
 private:
   struct Node {

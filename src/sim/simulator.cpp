@@ -597,7 +597,7 @@ VerifyFrame Simulator::verify(bool full) {
         v[3 * static_cast<std::size_t>(gids[k]) + d] = all[6 * k + 3 + d];
       }
     VerifyOptions opt;
-    opt.interior = opt.crossings = full;
+    opt.interior = opt.crossings = opt.self = full;
     opt.free_fall_speed = free_fall_speed_;
     f = verify_frame(*verify_mesh_, x.data(), v.data(), opt);
   }

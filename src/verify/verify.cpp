@@ -98,16 +98,46 @@ public:
     return verify::point_triangle_dist2(p, X(c[0]), X(c[1]), X(c[2]));
   }
 
+  // Vertex v, or one of its mesh neighbours, among the k vertices c.
+  bool touches_star(gid_t v, const gid_t* c, int k) const {
+    const auto u = static_cast<std::size_t>(v);
+    const gid_t* nb0 = m_.neighbours.data() + m_.neighbour_begin[u];
+    const gid_t* nb1 = m_.neighbours.data() + m_.neighbour_begin[u + 1];
+    for (int j = 0; j < k; ++j)
+      if (c[j] == v || std::binary_search(nb0, nb1, c[j])) return true;
+    return false;
+  }
+
+  // Self depth of surface vertex v of body b (verify.hpp), or -1.
+  double self_depth(gid_t v, std::int32_t b) const {
+    const double* p = X(v);
+    bool in = false;
+    auto consider = [&](std::int32_t t) {
+      const auto u = static_cast<std::size_t>(t);
+      if (in || m_.tet_object[u] != b || touches_star(v, &m_.tets[4 * u], 4)) return;
+      in = in_tet(p, u);
+    };
+    for (std::int32_t t : tets_.at(tets_.cell_of(p))) consider(t);
+    for (std::int32_t t : tets_.oversized()) consider(t);
+    if (!in) return -1;
+    const double d = surface_distance(p, b, v);
+    return d > tol_ ? d : -1;
+  }
+
   // Distance from p to body b's surface: rings of cells around p's cell, nearest first.
   // A triangle not met within ring r has its box outside the (2r+1)^3 block around p's
   // cell, so it is farther than r h: stop once the best distance is <= r h. Deep points
   // (beyond kMaxRing) and points off the grid go through all of b's triangles.
-  double surface_distance(const double* p, std::int32_t b) const {
+  // With `star` >= 0, the triangles touching star's star are left out (self depth).
+  double surface_distance(const double* p, std::int32_t b, gid_t star = -1) const {
+    auto counts = [&](std::size_t t) {
+      return m_.triangle_object[t] == b && (star < 0 || !touches_star(star, &m_.triangles[3 * t], 3));
+    };
     double best2 = std::numeric_limits<double>::infinity();
     bool exact = false;
     const CellBins::Cell c0 = tris_.cell_of(p, &exact);
     for (std::int32_t t : tris_.oversized())
-      if (m_.triangle_object[static_cast<std::size_t>(t)] == b) best2 = std::min(best2, tri_dist2(p, static_cast<std::size_t>(t)));
+      if (counts(static_cast<std::size_t>(t))) best2 = std::min(best2, tri_dist2(p, static_cast<std::size_t>(t)));
     const double h = tris_.cell_size();
     for (int r = 0; exact && r <= kMaxRing; ++r) {
       for (std::int64_t dx = -r; dx <= r; ++dx)
@@ -118,15 +148,16 @@ public:
             if (c[0] < 0 || c[1] < 0 || c[2] < 0 || c[0] >= tris_.dim(0) || c[1] >= tris_.dim(1) || c[2] >= tris_.dim(2))
               continue;
             for (std::int32_t t : tris_.at(c))
-              if (m_.triangle_object[static_cast<std::size_t>(t)] == b)
-                best2 = std::min(best2, tri_dist2(p, static_cast<std::size_t>(t)));
+              if (counts(static_cast<std::size_t>(t))) best2 = std::min(best2, tri_dist2(p, static_cast<std::size_t>(t)));
           }
       const double reach = r * h;
       if (best2 <= reach * reach) return std::sqrt(best2);
     }
     const auto ob = static_cast<std::size_t>(b);
-    for (gid_t k = m_.object_triangle_begin[ob]; k < m_.object_triangle_begin[ob + 1]; ++k)
-      best2 = std::min(best2, tri_dist2(p, static_cast<std::size_t>(m_.object_triangles[static_cast<std::size_t>(k)])));
+    for (gid_t k = m_.object_triangle_begin[ob]; k < m_.object_triangle_begin[ob + 1]; ++k) {
+      const auto t = static_cast<std::size_t>(m_.object_triangles[static_cast<std::size_t>(k)]);
+      if (star < 0 || counts(t)) best2 = std::min(best2, tri_dist2(p, t));
+    }
     return std::sqrt(best2);
   }
 
@@ -322,6 +353,26 @@ void prepare_verify_mesh(VerifyMesh& m, const double* rest, const std::string& s
     m.edges.push_back(b);
   }
 
+  // Mesh neighbours from the tets' edges.
+  std::vector<std::pair<gid_t, gid_t>> pairs;
+  pairs.reserve(12 * m.num_tets());
+  for (std::size_t t = 0; t < m.num_tets(); ++t)
+    for (const auto& e : kEdges) {
+      const gid_t a = m.tets[4 * t + static_cast<std::size_t>(e[0])], b = m.tets[4 * t + static_cast<std::size_t>(e[1])];
+      pairs.emplace_back(a, b);
+      pairs.emplace_back(b, a);
+    }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  m.neighbour_begin.assign(n + 1, 0);
+  m.neighbours.clear();
+  m.neighbours.reserve(pairs.size());
+  for (const auto& [a, b] : pairs) {
+    ++m.neighbour_begin[static_cast<std::size_t>(a) + 1];
+    m.neighbours.push_back(b);
+  }
+  for (std::size_t i = 0; i < n; ++i) m.neighbour_begin[i + 1] += m.neighbour_begin[i];
+
   m.object_triangle_begin.assign(static_cast<std::size_t>(nobj) + 1, 0);
   for (std::int32_t o : m.triangle_object) ++m.object_triangle_begin[static_cast<std::size_t>(o) + 1];
   for (std::size_t k = 0; k < static_cast<std::size_t>(nobj); ++k) m.object_triangle_begin[k + 1] += m.object_triangle_begin[k];
@@ -426,6 +477,15 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
     }
   });
   f.surface = inside_stats(m, depth, in_obj, [&](std::size_t i) { return m.surface_vertex[i] != 0; });
+  if (opt.self) {
+    std::vector<double> self(n, -1);
+    std::vector<std::int32_t> self_obj(m.vertex_object);
+    parallel_for(n, [&](std::size_t i) {
+      if (bad[i] || !m.surface_vertex[i] || m.object_fixed[static_cast<std::size_t>(m.vertex_object[i])]) return;
+      self[i] = check.self_depth(static_cast<gid_t>(i), m.vertex_object[i]);
+    });
+    f.self = inside_stats(m, self, self_obj, [](std::size_t) { return true; });
+  }
   if (opt.interior) f.interior = inside_stats(m, depth, in_obj, [&](std::size_t i) { return m.surface_vertex[i] == 0; });
 
   // Surface edges through other bodies' surface triangles.

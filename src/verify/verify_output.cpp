@@ -299,7 +299,7 @@ int verify_output(const std::string& dir_arg, const VerifyOutputOptions& opt, st
       << " tets, " << mesh.num_triangles() << " surface triangles; median edge h = " << fmt("%.4g", h)
       << " m; free-fall speed v_ff = " << fmt("%.4g", vo.free_fall_speed) << " m/s\n";
   out << " frame      step    time [s]  surf.in  depth/h    p99/h  int.in  depth/h   cross  no-vtx  depth/h  inverted"
-         "  v/v_ff\n";
+         "  v/v_ff  self.in   self/h\n";
 
   VerifyMaxima worst;
   std::vector<std::string> rows, violations;
@@ -318,13 +318,14 @@ int verify_output(const std::string& dir_arg, const VerifyOutputOptions& opt, st
     r.step = f.attribute<std::int64_t>("step");
     r.time = time;
     worst.add(r);
-    char line[256];
-    std::snprintf(line, sizeof line, "%6lld %9lld %11.5g %8lld %8.4f %8.4f %7lld %8.4f %7lld %7lld %8.4f %9lld %7.3f\n",
+    char line[300];
+    std::snprintf(line, sizeof line, "%6lld %9lld %11.5g %8lld %8.4f %8.4f %7lld %8.4f %7lld %7lld %8.4f %9lld %7.3f %8lld %8.4f\n",
                   static_cast<long long>(ff.number), static_cast<long long>(r.step), r.time,
                   static_cast<long long>(r.surface.count), r.surface_depth(), r.surface.p99_depth / h,
                   static_cast<long long>(r.interior.count), r.interior_depth(),
                   static_cast<long long>(r.crossings.count), static_cast<long long>(r.crossings.without_inside_vertex),
-                  r.crossing_depth(), static_cast<long long>(r.inverted), r.speed_ratio);
+                  r.crossing_depth(), static_cast<long long>(r.inverted), r.speed_ratio,
+                  static_cast<long long>(r.self.count), r.self_depth());
     out << line << std::flush;
     const std::string at = "frame " + std::to_string(ff.number) + " (t = " + fmt("%.6g", r.time) + " s)";
     if (limited(lim.max_depth) && r.surface_depth() > lim.max_depth)
@@ -336,6 +337,10 @@ int verify_output(const std::string& dir_arg, const VerifyOutputOptions& opt, st
                            object_name(md, r.interior.object) + " is " + fmt("%.4g", r.interior_depth()) +
                            " h deep in " + object_name(md, r.interior.in_object) + " (limit " +
                            fmt("%.4g", lim.max_interior_depth) + ")");
+    if (limited(lim.max_self_depth) && r.self_depth() > lim.max_self_depth)
+      violations.push_back(at + ": surface vertex " + std::to_string(r.self.vertex) + " of " +
+                           object_name(md, r.self.object) + " is " + fmt("%.4g", r.self_depth()) +
+                           " h deep in its own body (self-contact; limit " + fmt("%.4g", lim.max_self_depth) + ")");
     if (lim.max_crossings >= 0 && r.crossings.count > lim.max_crossings)
       violations.push_back(at + ": " + std::to_string(r.crossings.count) + " surface crossings (limit " +
                            std::to_string(lim.max_crossings) + ")");
@@ -373,6 +378,8 @@ int verify_output(const std::string& dir_arg, const VerifyOutputOptions& opt, st
     out << "; at most " << static_cast<long long>(worst.surface_count.value) << " surface vertices inside\n"
         << "  deepest interior vertex: " << fmt("%.4g", worst.interior_depth.value) << " h; at most "
         << static_cast<long long>(worst.interior_count.value) << " inside\n"
+        << "  deepest surface vertex in its own body: " << fmt("%.4g", worst.self_depth.value) << " h; at most "
+        << static_cast<long long>(worst.self_count.value) << " inside\n"
         << "  surface crossings: at most " << static_cast<long long>(worst.crossings.value) << " ("
         << static_cast<long long>(worst.crossings_without_inside_vertex.value)
         << " with no vertex inside), deepest " << fmt("%.4g", worst.crossing_depth.value) << " h\n"
@@ -384,7 +391,8 @@ int verify_output(const std::string& dir_arg, const VerifyOutputOptions& opt, st
   for (const std::string& v : violations) out << "  exceeded: " << v << "\n";
   out << (pass ? "PASS" : "FAIL") << ": limits surface depth "
       << (limited(lim.max_depth) ? fmt("%.4g", lim.max_depth) + " h" : "none") << ", interior depth "
-      << (limited(lim.max_interior_depth) ? fmt("%.4g", lim.max_interior_depth) + " h" : "none") << ", crossings "
+      << (limited(lim.max_interior_depth) ? fmt("%.4g", lim.max_interior_depth) + " h" : "none") << ", self depth "
+      << (limited(lim.max_self_depth) ? fmt("%.4g", lim.max_self_depth) + " h" : "none") << ", crossings "
       << (lim.max_crossings >= 0 ? std::to_string(lim.max_crossings) : "none") << ", inverted at the last frame "
       << (lim.max_inverted >= 0 ? std::to_string(lim.max_inverted) : "none") << ", speed "
       << (limited(lim.max_speed_ratio) ? fmt("%.3g", lim.max_speed_ratio) + " x v_ff" : "none") << "\n";
@@ -396,6 +404,7 @@ int verify_output(const std::string& dir_arg, const VerifyOutputOptions& opt, st
      << fmt("%.9g", gravity[1]) << ", " << fmt("%.9g", gravity[2]) << "]"
      << ",\n  \"thresholds\": {\"max_depth_edges\": " << limit_json(lim.max_depth)
      << ", \"max_interior_depth_edges\": " << limit_json(lim.max_interior_depth)
+     << ", \"max_self_depth_edges\": " << limit_json(lim.max_self_depth)
      << ", \"max_crossings\": " << (lim.max_crossings >= 0 ? std::to_string(lim.max_crossings) : "null")
      << ", \"max_inverted_last_frame\": " << (lim.max_inverted >= 0 ? std::to_string(lim.max_inverted) : "null")
      << ", \"max_speed_ratio\": " << limit_json(lim.max_speed_ratio) << "}"

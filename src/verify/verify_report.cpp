@@ -78,6 +78,8 @@ void VerifyMaxima::add(const VerifyFrame& f) {
   peak(surface_depth, f.surface_depth(), f);
   peak(interior_count, static_cast<double>(f.interior.count), f);
   peak(interior_depth, f.interior_depth(), f);
+  peak(self_count, static_cast<double>(f.self.count), f);
+  peak(self_depth, f.self_depth(), f);
   peak(crossings, static_cast<double>(f.crossings.count), f);
   peak(crossings_without_inside_vertex, static_cast<double>(f.crossings.without_inside_vertex), f);
   peak(crossing_depth, f.crossing_depth(), f);
@@ -101,6 +103,7 @@ std::string to_json(const VerifyFrame& f) {
   Json j;
   j.key("step").val(f.step).key("time").val(f.time).key("median_edge").val(h);
   j.key("surface").raw(inside_json(f.surface, h)).key("interior").raw(inside_json(f.interior, h));
+  j.key("self").raw(inside_json(f.self, h));
   j.key("crossings").raw(c.str());
   j.key("inverted").val(f.inverted).key("first_inverted").val(f.first_inverted).key("nonfinite").val(f.nonfinite);
   j.key("max_speed").val(f.max_speed).key("fastest_vertex").val(f.fastest).key("speed_ratio").val(f.speed_ratio);
@@ -112,6 +115,7 @@ std::string to_json(const VerifyMaxima& m) {
   j.key("checks").val(m.checks);
   j.key("surface_count").raw(peak_json(m.surface_count)).key("surface_depth_edges").raw(peak_json(m.surface_depth));
   j.key("interior_count").raw(peak_json(m.interior_count)).key("interior_depth_edges").raw(peak_json(m.interior_depth));
+  j.key("self_count").raw(peak_json(m.self_count)).key("self_depth_edges").raw(peak_json(m.self_depth));
   j.key("crossings").raw(peak_json(m.crossings));
   j.key("crossings_without_inside_vertex").raw(peak_json(m.crossings_without_inside_vertex));
   j.key("crossing_depth_edges").raw(peak_json(m.crossing_depth));

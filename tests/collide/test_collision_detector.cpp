@@ -197,9 +197,14 @@ TEST(CollisionDetector, SameRecordsWithOneAndTwoThreads) {
   EXPECT_EQ(s1.max_step_over_thickness, s2.max_step_over_thickness);
 }
 
-// A surface vertex pushed into the middle of its own box: inside a tet not incident to
-// it. Counted only with self-collisions on; never a record.
-TEST(CollisionDetector, SelfCollisionsCountedBehindTheSwitch) {
+// A surface vertex pushed into the middle of its own box: inside a tet that shares no
+// vertex with its star. Nothing without self-collisions; with them one self-contact
+// record. No border edge leaves the body (every neighbour is on the top face, whose
+// triangles near the vertex are its own side and skipped), and there is no x^t, so the
+// depth leads to the nearest surface triangle away from the star: the bottom face, 0.3
+// below (the top face away from the star is farther: its nearest such point is 0.7 above
+// and 0.23 aside).
+TEST(CollisionDetector, SelfContactBehindTheSwitch) {
   World w = world_from_objects("  - material: m\n    primitive: {type: box, size: [1, 1, 1], cells: [4, 4, 4]}\n");
   // The top centre vertex (0, 0, 0.5) moved to (0.01, 0.02, -0.2).
   std::size_t top = w.n_local();
@@ -218,7 +223,23 @@ TEST(CollisionDetector, SelfCollisionsCountedBehindTheSwitch) {
   self.self_collisions = true;
   CollisionDetector(w, self).detect(w, nullptr, c, st);
   EXPECT_EQ(st.self_collisions, 1);
-  EXPECT_TRUE(c.empty());
+  ASSERT_EQ(c.size(), 1u);
+  EXPECT_EQ(c[0].point, static_cast<index_t>(top));
+  EXPECT_EQ(c[0].object, c[0].other_object);
+  EXPECT_NEAR(c[0].depth[0], 0, 1e-12);
+  EXPECT_NEAR(c[0].depth[1], 0, 1e-12);
+  EXPECT_NEAR(c[0].depth[2], -0.3, 1e-12);
+  for (int k = 0; k < 3; ++k) {
+    const index_t v = c[0].triangle[k];
+    EXPECT_NEAR(w.x[3 * static_cast<std::size_t>(v) + 2], -0.5, 1e-12);  // a bottom-face triangle
+    EXPECT_NE(v, static_cast<index_t>(top));
+  }
+  // x~_i + d_i lies on T_i: the weights reproduce it.
+  for (int d = 0; d < 3; ++d) {
+    double on = 0;
+    for (int k = 0; k < 3; ++k) on += c[0].weight[k] * w.x[3 * static_cast<std::size_t>(c[0].triangle[k]) + static_cast<std::size_t>(d)];
+    EXPECT_NEAR(on, w.x[3 * top + static_cast<std::size_t>(d)] + c[0].depth[d], 1e-12);
+  }
 }
 
 // max_step_over_thickness: the largest |x~ - x^t| over the thinnest object's thickness

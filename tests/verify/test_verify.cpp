@@ -170,6 +170,38 @@ TEST(Verify, InteriorVerticesAreReportedApart) {
   EXPECT_EQ(g.surface.max_depth, f.surface.max_depth);
 }
 
+// Self-contact: the top centre vertex of a 1 m box (4 x 4 x 4 cells) moved to 0.3 above
+// the bottom face, inside tets far from its star. Its self depth is the distance to the
+// nearest surface triangle that touches no vertex of its star: the bottom face, 0.3.
+// Moved only 0.3 down, just past the vertex below it (into tets that touch its star, as
+// inverted elements put it), it is not counted. Another body's checks are unchanged, and with
+// VerifyOptions::self off nothing is counted.
+TEST(Verify, SurfaceVertexInsideItsOwnBodyAwayFromItsStar) {
+  SceneBodies s(R"(
+  - {material: m, primitive: {type: box, size: [1, 1, 1], cells: [4, 4, 4]}}
+)");
+  std::size_t top = s.x.size();
+  for (std::size_t v = 0; 3 * v < s.x.size(); ++v)
+    if (s.x[3 * v] == 0 && s.x[3 * v + 1] == 0 && s.x[3 * v + 2] == 0.5) top = v;
+  ASSERT_LT(top, s.x.size());
+  s.x[3 * top] = 0.01;
+  s.x[3 * top + 1] = 0.02;
+  s.x[3 * top + 2] = -0.2;
+  VerifyFrame f = verify_frame(s.mesh, s.x.data(), nullptr, all_checks());
+  EXPECT_EQ(f.self.count, 1);
+  EXPECT_EQ(f.self.vertex, static_cast<gid_t>(top));
+  EXPECT_NEAR(f.self.max_depth, 0.3, 1e-12);
+  EXPECT_NEAR(f.self_depth(), 0.3 / s.mesh.median_edge, 1e-12);
+  EXPECT_EQ(f.surface.count, 0);
+  VerifyOptions no_self = all_checks();
+  no_self.self = false;
+  EXPECT_EQ(verify_frame(s.mesh, s.x.data(), nullptr, no_self).self.count, 0);
+  s.x[3 * top + 2] = 0.2;  // through the vertex below it, into tets of its star: inverted, not a fold
+  f = verify_frame(s.mesh, s.x.data(), nullptr, all_checks());
+  EXPECT_EQ(f.self.count, 0);
+  EXPECT_GT(f.inverted, 0);
+}
+
 // Two long square bars turned 45 degrees about their axes, one along x with an edge down,
 // one along y with an edge up, crossed so that their edges overlap by 0.04 m: no vertex is
 // inside the other bar, but each bar's edge runs through the other: 4 crossings (off the
