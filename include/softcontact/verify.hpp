@@ -24,6 +24,10 @@
 //    vertex of the star exceeds 1e-9 h. That distance is its self depth: the surface
 //    near the vertex is left out, so the depth is the true one up to about one edge and
 //    at most about one edge beyond that.
+//  - A *self crossing* is a crossing (as below) of a surface edge of A with a surface
+//    triangle of A that touches no vertex of the stars of the edge's two ends; its depth
+//    is taken the same way, in A's tets and to A's surface triangles that touch neither
+//    star.
 //  - A *crossing* is a pair (surface edge of A, surface triangle of B) where the edge's
 //    endpoints lie on opposite sides of the triangle's plane, each farther from it than
 //    1e-9 h, and the crossing point inside the closed triangle (barycentric coordinates
@@ -138,6 +142,7 @@ struct VerifyFrame {
   InsideStats surface;           ///< surface vertices inside other bodies
   InsideStats interior;          ///< interior vertices inside other bodies (with VerifyOptions::interior)
   InsideStats self;              ///< surface vertices inside their own body (with VerifyOptions::self)
+  CrossingStats self_crossings;  ///< surface edges through their own body's surface (with self and crossings; no grazing / without_inside_vertex)
   CrossingStats crossings;       ///< with VerifyOptions::crossings
   std::int64_t inverted = 0;     ///< inverted or flat tets
   gid_t first_inverted = -1;     ///< the lowest such tet id
@@ -149,6 +154,7 @@ struct VerifyFrame {
   double surface_depth() const { return surface.max_depth / median_edge; }    ///< in median edges
   double interior_depth() const { return interior.max_depth / median_edge; }  ///< in median edges
   double self_depth() const { return self.max_depth / median_edge; }          ///< in median edges
+  double self_crossing_depth() const { return self_crossings.max_depth / median_edge; }  ///< in median edges
   double crossing_depth() const { return crossings.max_depth / median_edge; } ///< in median edges
 };
 static_assert(std::is_trivially_copyable_v<VerifyFrame>, "VerifyFrame is broadcast as bytes");
@@ -169,7 +175,7 @@ struct VerifyMaxima {
   std::int64_t checks = 0;
   VerifyPeak surface_count, surface_depth;     ///< depth in median edges
   VerifyPeak interior_count, interior_depth;
-  VerifyPeak self_count, self_depth;
+  VerifyPeak self_count, self_depth, self_crossings, self_crossing_depth;
   VerifyPeak crossings, crossings_without_inside_vertex, crossing_depth;
   VerifyPeak inverted, nonfinite, max_speed, speed_ratio;
   VerifyFrame deepest;                         ///< the check with the deepest surface vertex

@@ -431,7 +431,8 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
            << " in " << name(w.in_object) << ")";
     line << ", at most " << verify_max.surface_count.value << " inside; interior vertices "
          << verify_max.interior_depth.value << "; in their own body " << verify_max.self_depth.value
-         << " (at most " << verify_max.self_count.value << "); crossings at most " << verify_max.crossings.value << " ("
+         << " (at most " << verify_max.self_count.value << "), edges through their own surface "
+         << verify_max.self_crossing_depth.value << "; crossings at most " << verify_max.crossings.value << " ("
          << verify_max.crossings_without_inside_vertex.value << " with no vertex inside), deepest "
          << verify_max.crossing_depth.value << "; inverted tets at most " << verify_max.inverted.value
          << "; speed at most " << verify_max.speed_ratio.value << " x free fall\n";

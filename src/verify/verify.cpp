@@ -46,6 +46,13 @@ std::string row_error(const char* what, std::size_t row, const std::string& deta
   return std::string(what) + " " + std::to_string(row) + ": " + detail;
 }
 
+// Vertices whose stars (the vertex and its mesh neighbours) a self check leaves out:
+// none, one vertex (self depth), or an edge's two ends (self crossings).
+struct Star {
+  gid_t v0 = -1, v1 = -1;
+  bool any() const { return v0 >= 0; }
+};
+
 // The state of one check: positions and the two grids.
 class FrameCheck {
 public:
@@ -84,12 +91,16 @@ public:
     return n;
   }
 
-  // p in a closed tet of body b.
-  bool in_body(const double* p, std::int32_t b) const {
+  // p in a closed tet of body b (that touches no vertex of `star`'s stars).
+  bool in_body(const double* p, std::int32_t b, const Star& star = {}) const {
+    auto holds = [&](std::int32_t t) {
+      const auto u = static_cast<std::size_t>(t);
+      return m_.tet_object[u] == b && !touches(star, &m_.tets[4 * u], 4) && in_tet(p, u);
+    };
     for (std::int32_t t : tets_.at(tets_.cell_of(p)))
-      if (m_.tet_object[static_cast<std::size_t>(t)] == b && in_tet(p, static_cast<std::size_t>(t))) return true;
+      if (holds(t)) return true;
     for (std::int32_t t : tets_.oversized())
-      if (m_.tet_object[static_cast<std::size_t>(t)] == b && in_tet(p, static_cast<std::size_t>(t))) return true;
+      if (holds(t)) return true;
     return false;
   }
 
@@ -108,31 +119,21 @@ public:
     return false;
   }
 
-  // Self depth of surface vertex v of body b (verify.hpp), or -1.
-  double self_depth(gid_t v, std::int32_t b) const {
-    const double* p = X(v);
-    bool in = false;
-    auto consider = [&](std::int32_t t) {
-      const auto u = static_cast<std::size_t>(t);
-      if (in || m_.tet_object[u] != b || touches_star(v, &m_.tets[4 * u], 4)) return;
-      in = in_tet(p, u);
-    };
-    for (std::int32_t t : tets_.at(tets_.cell_of(p))) consider(t);
-    for (std::int32_t t : tets_.oversized()) consider(t);
-    if (!in) return -1;
-    const double d = surface_distance(p, b, v);
-    return d > tol_ ? d : -1;
+  // One of the k vertices c touches the star of star.v0 or of star.v1.
+  bool touches(const Star& star, const gid_t* c, int k) const {
+    return (star.v0 >= 0 && touches_star(star.v0, c, k)) || (star.v1 >= 0 && touches_star(star.v1, c, k));
   }
+
+  // Self depth of surface vertex v of body b (verify.hpp), or -1.
+  double self_depth(gid_t v, std::int32_t b) const { return depth_in(X(v), b, Star{v, -1}); }
 
   // Distance from p to body b's surface: rings of cells around p's cell, nearest first.
   // A triangle not met within ring r has its box outside the (2r+1)^3 block around p's
   // cell, so it is farther than r h: stop once the best distance is <= r h. Deep points
   // (beyond kMaxRing) and points off the grid go through all of b's triangles.
-  // With `star` >= 0, the triangles touching star's star are left out (self depth).
-  double surface_distance(const double* p, std::int32_t b, gid_t star = -1) const {
-    auto counts = [&](std::size_t t) {
-      return m_.triangle_object[t] == b && (star < 0 || !touches_star(star, &m_.triangles[3 * t], 3));
-    };
+  // The triangles touching `star`'s stars are left out (self checks).
+  double surface_distance(const double* p, std::int32_t b, const Star& star = {}) const {
+    auto counts = [&](std::size_t t) { return m_.triangle_object[t] == b && !touches(star, &m_.triangles[3 * t], 3); };
     double best2 = std::numeric_limits<double>::infinity();
     bool exact = false;
     const CellBins::Cell c0 = tris_.cell_of(p, &exact);
@@ -156,16 +157,16 @@ public:
     const auto ob = static_cast<std::size_t>(b);
     for (gid_t k = m_.object_triangle_begin[ob]; k < m_.object_triangle_begin[ob + 1]; ++k) {
       const auto t = static_cast<std::size_t>(m_.object_triangles[static_cast<std::size_t>(k)]);
-      if (star < 0 || counts(t)) best2 = std::min(best2, tri_dist2(p, t));
+      if (counts(t)) best2 = std::min(best2, tri_dist2(p, t));
     }
     return std::sqrt(best2);
   }
 
   // Depth of p in body b (its distance to b's surface) when p is inside b and deeper
   // than the tolerance; else -1.
-  double depth_in(const double* p, std::int32_t b) const {
-    if (!in_body(p, b)) return -1;
-    const double d = surface_distance(p, b);
+  double depth_in(const double* p, std::int32_t b, const Star& star = {}) const {
+    if (!in_body(p, b, star)) return -1;
+    const double d = surface_distance(p, b, star);
     return d > tol_ ? d : -1;
   }
 
@@ -177,10 +178,11 @@ public:
   // down to kDepthAccuracy h (exact where the depth is unimodal there, as inside a convex
   // part; the depth is 1-Lipschitz, so the samples alone are short of it by at most half
   // their spacing).
-  double deepest_on_segment(const double* pa, const double* pb, double t0, double t1, std::int32_t b) const {
+  double deepest_on_segment(const double* pa, const double* pb, double t0, double t1, std::int32_t b,
+                            const Star& star = {}) const {
     auto depth_at = [&](double t) {
       const double q[3] = {pa[0] + t * (pb[0] - pa[0]), pa[1] + t * (pb[1] - pa[1]), pa[2] + t * (pb[2] - pa[2])};
-      return std::max(0.0, depth_in(q, b));
+      return std::max(0.0, depth_in(q, b, star));
     };
     const double length = std::sqrt(verify::dist2(pa, pb)) * (t1 - t0);
     const double h = m_.median_edge > 0 ? m_.median_edge : 1.0, accuracy = kDepthAccuracy * h;
@@ -494,6 +496,9 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
       std::int32_t count = 0, without_inside = 0, grazing = 0;
       double depth = -1;
       std::int32_t triangle = -1;
+      std::int32_t self_count = 0;  // through its own body's surface, away from the edge's stars
+      double self_depth = -1;
+      std::int32_t self_triangle = -1;
     };
     struct Hit {
       double t;                // crossing point a + t (b - a)
@@ -519,13 +524,16 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
         hi[d] = std::max(pa[d], pb[d]);
       }
       std::vector<Hit> hits;  // allocates only for crossing edges
+      const Star star{a, b};
       auto test = [&](std::size_t t) {
         const std::int32_t body = m.triangle_object[t];
-        if (check.skip_pair(own, body)) return;
+        const bool self = body == own;
+        if (self ? !opt.self || m.object_fixed[static_cast<std::size_t>(own)] : check.skip_pair(own, body)) return;
         const double *tl = check.tri_lo(t), *th = check.tri_hi(t);
         for (int d = 0; d < 3; ++d)
           if (th[d] < lo[d] || tl[d] > hi[d]) return;
         const gid_t* c = &m.triangles[3 * t];
+        if (self && check.touches(star, c, 3)) return;  // the edge's own neighbourhood
         bool a_outside = false;
         const double s = verify::segment_crosses_triangle(pa, pb, check.X(c[0]), check.X(c[1]), check.X(c[2]),
                                                           check.tolerance(), kBarycentricTol, a_outside);
@@ -575,10 +583,19 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
             if (hits[k].entering) deepest = depth[k];
             break;
           }
-        if (deepest < 0) deepest = check.deepest_on_segment(pa, pb, t0, t1, h.body);
+        const bool self = h.body == own;
+        if (deepest < 0) deepest = check.deepest_on_segment(pa, pb, t0, t1, h.body, self ? star : Star{});
         depth[j] = deepest;
         if (deepest <= check.tolerance()) {
-          ++r.grazing;  // through a triangle's rim, or touching: not inside anywhere
+          r.grazing += self ? 0 : 1;  // through a triangle's rim, or touching: not inside anywhere
+          continue;
+        }
+        if (self) {
+          ++r.self_count;
+          if (deepest > r.self_depth || (deepest == r.self_depth && h.triangle < r.self_triangle)) {
+            r.self_depth = deepest;
+            r.self_triangle = h.triangle;
+          }
           continue;
         }
         const gid_t* c = &m.triangles[3 * static_cast<std::size_t>(h.triangle)];
@@ -594,6 +611,17 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
     });
     for (std::size_t e = 0; e < ne; ++e) {
       const EdgeResult& r = er[e];
+      if (r.self_count > 0) {
+        CrossingStats& sc = f.self_crossings;
+        sc.count += r.self_count;
+        if (sc.triangle < 0 || r.self_depth > sc.max_depth) {
+          sc.max_depth = r.self_depth;
+          sc.edge[0] = m.edges[2 * e];
+          sc.edge[1] = m.edges[2 * e + 1];
+          sc.triangle = r.self_triangle;
+          sc.object = sc.in_object = m.vertex_object[static_cast<std::size_t>(m.edges[2 * e])];
+        }
+      }
       f.crossings.grazing += r.grazing;
       if (r.count == 0) continue;
       f.crossings.count += r.count;

@@ -299,7 +299,7 @@ int verify_output(const std::string& dir_arg, const VerifyOutputOptions& opt, st
       << " tets, " << mesh.num_triangles() << " surface triangles; median edge h = " << fmt("%.4g", h)
       << " m; free-fall speed v_ff = " << fmt("%.4g", vo.free_fall_speed) << " m/s\n";
   out << " frame      step    time [s]  surf.in  depth/h    p99/h  int.in  depth/h   cross  no-vtx  depth/h  inverted"
-         "  v/v_ff  self.in   self/h\n";
+         "  v/v_ff  self.in   self/h  self.x  depth/h\n";
 
   VerifyMaxima worst;
   std::vector<std::string> rows, violations;
@@ -319,13 +319,14 @@ int verify_output(const std::string& dir_arg, const VerifyOutputOptions& opt, st
     r.time = time;
     worst.add(r);
     char line[300];
-    std::snprintf(line, sizeof line, "%6lld %9lld %11.5g %8lld %8.4f %8.4f %7lld %8.4f %7lld %7lld %8.4f %9lld %7.3f %8lld %8.4f\n",
+    std::snprintf(line, sizeof line, "%6lld %9lld %11.5g %8lld %8.4f %8.4f %7lld %8.4f %7lld %7lld %8.4f %9lld %7.3f %8lld %8.4f %7lld %8.4f\n",
                   static_cast<long long>(ff.number), static_cast<long long>(r.step), r.time,
                   static_cast<long long>(r.surface.count), r.surface_depth(), r.surface.p99_depth / h,
                   static_cast<long long>(r.interior.count), r.interior_depth(),
                   static_cast<long long>(r.crossings.count), static_cast<long long>(r.crossings.without_inside_vertex),
                   r.crossing_depth(), static_cast<long long>(r.inverted), r.speed_ratio,
-                  static_cast<long long>(r.self.count), r.self_depth());
+                  static_cast<long long>(r.self.count), r.self_depth(),
+                  static_cast<long long>(r.self_crossings.count), r.self_crossing_depth());
     out << line << std::flush;
     const std::string at = "frame " + std::to_string(ff.number) + " (t = " + fmt("%.6g", r.time) + " s)";
     if (limited(lim.max_depth) && r.surface_depth() > lim.max_depth)
@@ -379,7 +380,9 @@ int verify_output(const std::string& dir_arg, const VerifyOutputOptions& opt, st
         << "  deepest interior vertex: " << fmt("%.4g", worst.interior_depth.value) << " h; at most "
         << static_cast<long long>(worst.interior_count.value) << " inside\n"
         << "  deepest surface vertex in its own body: " << fmt("%.4g", worst.self_depth.value) << " h; at most "
-        << static_cast<long long>(worst.self_count.value) << " inside\n"
+        << static_cast<long long>(worst.self_count.value) << " inside; its surface edges through its own surface: at most "
+        << static_cast<long long>(worst.self_crossings.value) << ", deepest " << fmt("%.4g", worst.self_crossing_depth.value)
+        << " h\n"
         << "  surface crossings: at most " << static_cast<long long>(worst.crossings.value) << " ("
         << static_cast<long long>(worst.crossings_without_inside_vertex.value)
         << " with no vertex inside), deepest " << fmt("%.4g", worst.crossing_depth.value) << " h\n"

@@ -63,6 +63,19 @@ std::string inside_json(const InsideStats& s, double h) {
   return j.str();
 }
 
+std::string crossing_json(const CrossingStats& x, double h) {
+  Json c;
+  c.key("count").val(x.count).key("without_inside_vertex").val(x.without_inside_vertex);
+  c.key("grazing").val(x.grazing);
+  c.key("max_depth").val(x.max_depth).key("max_depth_edges").val(x.max_depth / h);
+  std::ostringstream edge;
+  edge << '[' << x.edge[0] << ", " << x.edge[1] << ']';
+  c.key("edge").raw(edge.str());
+  c.key("triangle").val(x.triangle).key("object").val(std::int64_t{x.object});
+  c.key("in_object").val(std::int64_t{x.in_object});
+  return c.str();
+}
+
 std::string peak_json(const VerifyPeak& p) {
   Json j;
   j.key("value").val(p.value).key("step").val(p.step).key("time").val(p.time);
@@ -80,6 +93,8 @@ void VerifyMaxima::add(const VerifyFrame& f) {
   peak(interior_depth, f.interior_depth(), f);
   peak(self_count, static_cast<double>(f.self.count), f);
   peak(self_depth, f.self_depth(), f);
+  peak(self_crossings, static_cast<double>(f.self_crossings.count), f);
+  peak(self_crossing_depth, f.self_crossing_depth(), f);
   peak(crossings, static_cast<double>(f.crossings.count), f);
   peak(crossings_without_inside_vertex, static_cast<double>(f.crossings.without_inside_vertex), f);
   peak(crossing_depth, f.crossing_depth(), f);
@@ -91,20 +106,12 @@ void VerifyMaxima::add(const VerifyFrame& f) {
 
 std::string to_json(const VerifyFrame& f) {
   const double h = f.median_edge;
-  Json c;
-  c.key("count").val(f.crossings.count).key("without_inside_vertex").val(f.crossings.without_inside_vertex);
-  c.key("grazing").val(f.crossings.grazing);
-  c.key("max_depth").val(f.crossings.max_depth).key("max_depth_edges").val(f.crossings.max_depth / h);
-  std::ostringstream edge;
-  edge << '[' << f.crossings.edge[0] << ", " << f.crossings.edge[1] << ']';
-  c.key("edge").raw(edge.str());
-  c.key("triangle").val(f.crossings.triangle).key("object").val(std::int64_t{f.crossings.object});
-  c.key("in_object").val(std::int64_t{f.crossings.in_object});
   Json j;
   j.key("step").val(f.step).key("time").val(f.time).key("median_edge").val(h);
   j.key("surface").raw(inside_json(f.surface, h)).key("interior").raw(inside_json(f.interior, h));
   j.key("self").raw(inside_json(f.self, h));
-  j.key("crossings").raw(c.str());
+  j.key("self_crossings").raw(crossing_json(f.self_crossings, h));
+  j.key("crossings").raw(crossing_json(f.crossings, h));
   j.key("inverted").val(f.inverted).key("first_inverted").val(f.first_inverted).key("nonfinite").val(f.nonfinite);
   j.key("max_speed").val(f.max_speed).key("fastest_vertex").val(f.fastest).key("speed_ratio").val(f.speed_ratio);
   return j.str();
@@ -116,6 +123,8 @@ std::string to_json(const VerifyMaxima& m) {
   j.key("surface_count").raw(peak_json(m.surface_count)).key("surface_depth_edges").raw(peak_json(m.surface_depth));
   j.key("interior_count").raw(peak_json(m.interior_count)).key("interior_depth_edges").raw(peak_json(m.interior_depth));
   j.key("self_count").raw(peak_json(m.self_count)).key("self_depth_edges").raw(peak_json(m.self_depth));
+  j.key("self_crossings").raw(peak_json(m.self_crossings));
+  j.key("self_crossing_depth_edges").raw(peak_json(m.self_crossing_depth));
   j.key("crossings").raw(peak_json(m.crossings));
   j.key("crossings_without_inside_vertex").raw(peak_json(m.crossings_without_inside_vertex));
   j.key("crossing_depth_edges").raw(peak_json(m.crossing_depth));

@@ -2,8 +2,9 @@
 # Self-contact (issue 15): a scene of tests/data/scenes with `self_collisions: true`
 # (ring_squeeze.yaml) run whole with softcontact verify's check every step
 # (--verify-every 1), then verify on every written frame. Fails (exit 1) when the deepest
-# surface vertex inside its own body (self_depth_edges, in median edges h), over all
-# frames or over the in-run checks, exceeds MAX_SELF_DEPTH_EDGES, or when verify fails its
+# surface vertex inside its own body (self_depth_edges, in median edges h) or the deepest
+# part of a surface edge through the body's own surface (self_crossing_depth_edges), over
+# all frames or over the in-run checks, exceeds MAX_SELF_DEPTH_EDGES, or when verify fails its
 # other limits (surface depth in other bodies MAX_SELF_DEPTH_EDGES as well, fastest vertex
 # 3 x v_ff, no inverted tet at the last frame). Then the same scene with self_collisions
 # off must go deeper than MIN_DEPTH_WITHOUT_EDGES: the scene does press the body into
@@ -30,10 +31,12 @@ fi
 rc=${PIPESTATUS[0]}
 [ "$rc" = 0 ] || { echo "FAIL: softcontact verify exited $rc"; fail=1; }
 for f in "$work/on.json" "$work/on/verify_steps.json"; do
-  v=$(value self_depth_edges "$f")
-  [ -n "$v" ] || { echo "FAIL: no self_depth_edges in $f"; fail=1; continue; }
-  echo "$f: deepest surface vertex in its own body $v h (bound $bound)"
-  if above "$v" "$bound"; then echo "FAIL: $v h > $bound h"; fail=1; fi
+  for key in self_depth_edges self_crossing_depth_edges; do
+    v=$(value "$key" "$f")
+    [ -n "$v" ] || { echo "FAIL: no $key in $f"; fail=1; continue; }
+    echo "$f: $key $v h (bound $bound)"
+    if above "$v" "$bound"; then echo "FAIL: $key $v h > $bound h"; fail=1; fi
+  done
 done
 
 sed 's/^  self_collisions: true/  self_collisions: false/' "$scene" >"$work/off.yaml"
