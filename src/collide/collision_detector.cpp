@@ -482,6 +482,7 @@ void CollisionDetector::Impl::depth(const World& w, const double* x_prev, std::v
     ein.object_box = &object_box;
     ein.partners = &partners;
     ein.cell_size = grid.cell_size();
+    ein.self = settings.self_collisions;
     EdgeCounters ec;
     edge_finder.find(ein, out, ec);
     st.edge_crossings = ec.crossings;

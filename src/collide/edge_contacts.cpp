@@ -56,6 +56,16 @@ bool crosses(const V3& p, const V3& q, const V3& a, const V3& b, const V3& c, do
   return true;
 }
 
+// Triangle t touches the star of vertex v (v or one of its mesh neighbours).
+bool touches_star(const CollisionTopology& topo, index_t v, const index_t* t) {
+  const auto u = static_cast<std::size_t>(v);
+  const auto nb0 = topo.edge_to.begin() + static_cast<std::ptrdiff_t>(topo.edge_begin[u]);
+  const auto nb1 = topo.edge_to.begin() + static_cast<std::ptrdiff_t>(topo.edge_begin[u + 1]);
+  for (int k = 0; k < 3; ++k)
+    if (t[k] == v || std::binary_search(nb0, nb1, t[k])) return true;
+  return false;
+}
+
 V3 unit_normal(const double* x, const index_t* t) {
   const V3 a = load(x, t[0]), b = load(x, t[1]), c = load(x, t[2]);
   return normalized(cross(b - a, c - a));
@@ -72,7 +82,8 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
   const double* x = w.x.data();
   const std::size_t no = topo.objects.size();
 
-  // 1. Candidates: surface edges of owned objects whose box meets a partner's box.
+  // 1. Candidates: surface edges of owned objects whose box meets a partner's box (with
+  // self-contact: every surface edge of an owned object).
   cand_.clear();
   cand_slot_.clear();
   cand_box_.assign(no, Box{});
@@ -80,7 +91,7 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
   seg_slot_.clear();
   double half = 0;
   for (std::size_t k = 0; k < no; ++k) {
-    if (partners[k].empty() || !w.owns_object(topo.objects[k].object)) continue;
+    if ((partners[k].empty() && !in.self) || !w.owns_object(topo.objects[k].object)) continue;
     for (std::size_t e = E.object_begin[k]; e < E.object_begin[k + 1]; ++e) {
       const index_t a = E.a[e], b = E.b[e];
       if (in.bad_vertex[static_cast<std::size_t>(a)] || in.bad_vertex[static_cast<std::size_t>(b)]) continue;
@@ -88,7 +99,7 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
       eb.reset();
       eb.add(load(x, a));
       eb.add(load(x, b));
-      bool take = false;
+      bool take = in.self;
       for (std::size_t q = 0; !take && q < partners[k].size(); ++q) take = obox[static_cast<std::size_t>(partners[k][q])].overlaps(eb);
       if (!take) continue;
       cand_.push_back(e);
@@ -132,6 +143,7 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
   for (std::size_t b = 0; b < no; ++b) {
     Box fb;
     fb.reset();
+    if (in.self && !cand_box_[b].empty()) fb = cand_box_[b];  // its own candidates (owned objects only)
     for (std::int32_t a : partners[b]) {
       const Box& ca = cand_box_[static_cast<std::size_t>(a)];
       if (ca.empty() || !ca.overlaps(obox[b])) continue;
@@ -145,6 +157,7 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
   passed_.resize(static_cast<std::size_t>(max_threads()));
 
   const std::size_t s = w.triangles.size() / 3;
+  const bool self_on = in.self;
   parallel_for(s, [&](std::size_t r, int th) {
     const std::int32_t slot = topo.triangle_slot[r];
     if (slot < 0 || tri_box_[static_cast<std::size_t>(slot)].empty()) return;
@@ -188,7 +201,7 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
       for (std::size_t k = k0; k < k1; ++k) {
         const double* m = px + 3 * k;
         const bool in = (m[0] >= box.lo[0]) & (m[0] <= box.hi[0]) & (m[1] >= box.lo[1]) & (m[1] <= box.hi[1]) &
-                        (m[2] >= box.lo[2]) & (m[2] <= box.hi[2]) & (label[k] != slot);
+                        (m[2] >= box.lo[2]) & (m[2] <= box.hi[2]) & (self_on | (label[k] != slot));
         outp[n] = static_cast<std::uint32_t>(k);
         n += in;
       }
@@ -201,6 +214,10 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
         for (std::size_t d = 0; d < 3; ++d)
           apart |= std::min(pq[d], pq[3 + d]) > tight.hi[d] || std::max(pq[d], pq[3 + d]) < tight.lo[d];
         if (apart) continue;
+        if (self_on && cand_slot_[i] == slot) {  // self-contact: not the edge's own neighbourhood
+          const std::size_t e = cand_[i];
+          if (touches_star(topo, E.a[e], t) || touches_star(topo, E.b[e], t)) continue;
+        }
         const V3 p{pq[0], pq[1], pq[2]}, q{pq[3], pq[4], pq[5]};
         const double sp = dot(p - a, nrm), sq = dot(q - a, nrm);
         double tc;

@@ -32,6 +32,12 @@
 // the same four vertices; the response's shares (docs/contact.md) split such a vertex
 // two ways, so the pair is corrected once, not twice.
 //
+// Self-contact (EdgeSearchInput::self, with simulation.self_collisions): every surface
+// edge of an owned object is a candidate against its own object's triangles too, except
+// triangles that touch the star (the vertex and its mesh neighbours) of either end; an
+// edge through the other side of a fold then pairs and records exactly as between two
+// bodies (object == other_object), and the vertex self records skip it the same way.
+//
 // Keys: point_gid = gid(a), triangle_gid = global_triangles * (1 + gid(b)) + gid(T_in):
 // never a real triangle's id, unique per (edge, entry triangle), independent of ranks.
 #include <cstdint>
@@ -69,6 +75,7 @@ struct EdgeSearchInput {
   const std::vector<Box>* object_box = nullptr;                     ///< per slot
   const std::vector<std::vector<std::int32_t>>* partners = nullptr;  ///< per slot
   double cell_size = 0;
+  bool self = false;  ///< also edges through their own body's surface away from their ends' stars (self-contact)
 };
 
 class EdgeContactFinder {

@@ -9,15 +9,21 @@
 # 3 x v_ff, no inverted tet at the last frame). Then the same scene with self_collisions
 # off must go deeper than MIN_DEPTH_WITHOUT_EDGES: the scene does press the body into
 # itself, so that the first part measures the response and not a scene without contact.
-# Usage: self_contact_test.sh EXE SCENE.yaml WORKDIR MAX_SELF_DEPTH_EDGES MIN_DEPTH_WITHOUT_EDGES
+# With a sixth argument `edges`, the scene runs with `edge_contacts: true` added (edges
+# through the body's own surface get records too).
+# Usage: self_contact_test.sh EXE SCENE.yaml WORKDIR MAX_SELF_DEPTH_EDGES MIN_DEPTH_WITHOUT_EDGES [edges]
 set -u
-if [ $# -ne 5 ]; then
-  echo "usage: $0 EXE SCENE.yaml WORKDIR MAX_SELF_DEPTH_EDGES MIN_DEPTH_WITHOUT_EDGES" >&2
+if [ $# -lt 5 ] || [ $# -gt 6 ]; then
+  echo "usage: $0 EXE SCENE.yaml WORKDIR MAX_SELF_DEPTH_EDGES MIN_DEPTH_WITHOUT_EDGES [edges]" >&2
   exit 2
 fi
 exe=$1 scene=$2 work=$3 bound=$4 without=$5
 rm -rf "$work" && mkdir -p "$work" || exit 1
 grep -q '^  self_collisions: true' "$scene" || { echo "FAIL: $scene does not set self_collisions: true"; exit 1; }
+if [ "${6:-}" = edges ]; then
+  sed 's/^  self_collisions: true/  self_collisions: true\n  edge_contacts: true/' "$scene" >"$work/scene.yaml"
+  scene=$work/scene.yaml
+fi
 fail=0
 # value KEY FILE: the "value" of a maximum {"value", "step", "time"} in a verify JSON file.
 value() { grep -oE "\"$1\": \{\"value\": [-0-9.e+]+" "$2" | head -1 | sed -E 's/.*"value": //'; }

@@ -185,3 +185,80 @@ TEST(EdgeContacts, ResponseClosesTheCrossingOnce) {
   EXPECT_EQ(after.edge_contacts, 0);
   EXPECT_EQ(after.colliding_points, 0);
 }
+
+namespace {
+
+// The two crossed boxes as one object (one mesh file, two components): the same
+// interlock, now a body against itself.
+World crossed_boxes_as_one(double overlap, bool self, const std::string& path) {
+  const Scene two = load_scene_from_string(std::string(kMaterials) + "objects:\n" + crossed_boxes(overlap), "t.yaml");
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  EXPECT_NE(f, nullptr);
+  std::size_t nv = 0, nt = 0;
+  for (const SceneObject& o : two.objects) {
+    nv += o.mesh.num_vertices();
+    nt += o.mesh.num_tets();
+  }
+  std::fprintf(f, "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n%zu\n", nv);
+  std::size_t id = 0;
+  for (const SceneObject& o : two.objects)
+    for (std::size_t v = 0; v < o.mesh.num_vertices(); ++v, ++id)
+      std::fprintf(f, "%zu %.17g %.17g %.17g\n", id + 1, o.mesh.points[3 * v], o.mesh.points[3 * v + 1], o.mesh.points[3 * v + 2]);
+  std::fprintf(f, "$EndNodes\n$Elements\n%zu\n", nt);
+  std::size_t base = 0, e = 0;
+  for (const SceneObject& o : two.objects) {
+    for (std::size_t t = 0; t < o.mesh.num_tets(); ++t, ++e) {
+      const index_t* c = &o.mesh.tets[4 * t];
+      std::fprintf(f, "%zu 4 2 1 1 %zu %zu %zu %zu\n", e + 1, base + c[0] + 1, base + c[1] + 1, base + c[2] + 1, base + c[3] + 1);
+    }
+    base += o.mesh.num_vertices();
+  }
+  std::fprintf(f, "$EndElements\n");
+  std::fclose(f);
+  std::string yaml = std::string(kMaterials);
+  yaml.replace(yaml.find("steps: 1}"), 9, std::string("steps: 1, self_collisions: ") + (self ? "true" : "false") + "}");
+  const Scene one = load_scene_from_string(yaml + "objects:\n  - {name: both, material: m, mesh: " + path + "}\n", "t.yaml");
+  return build_world(one, block_partition(one, 1), 0);
+}
+
+}  // namespace
+
+// Self-contact: the crossed ridges of one body's two parts give the same two edge-edge
+// records as two bodies (depth the overlap along z, weights 1/2), now with object ==
+// other_object; without self-contact nothing is found (one body, no partner).
+TEST(EdgeContacts, SelfCrossingOfOneBodyGivesTheSameRecords) {
+  const double overlap = 0.004;
+  const std::string path = testing::TempDir() + "crossed_as_one.msh";
+  for (bool self : {false, true}) {
+    const World w = crossed_boxes_as_one(overlap, self, path);
+    CollisionSettings set = with_edges();
+    set.self_collisions = self;
+    CollisionDetector det(w, set);
+    std::vector<Collision> c;
+    CollisionStats st;
+    det.detect(w, nullptr, c, st);
+    EXPECT_EQ(st.colliding_points, 0);
+    if (!self) {
+      EXPECT_TRUE(c.empty());
+      EXPECT_EQ(st.edge_crossings, 0);
+      continue;
+    }
+    EXPECT_EQ(st.edge_crossings, 4);
+    EXPECT_EQ(st.edge_unpaired, 0);
+    ASSERT_EQ(c.size(), 2u);
+    double sum_z = 0;
+    for (const Collision& r : c) {
+      EXPECT_EQ(r.object, 0);
+      EXPECT_EQ(r.other_object, 0);
+      EXPECT_NEAR(r.point_weight, 0.5, 1e-9);
+      EXPECT_NEAR(r.weight[0], 0.5, 1e-9);
+      EXPECT_NEAR(r.weight[1], 0.5, 1e-9);
+      EXPECT_NEAR(r.depth[0], 0, 1e-12);
+      EXPECT_NEAR(r.depth[1], 0, 1e-12);
+      EXPECT_NEAR(std::abs(r.depth[2]), overlap, 1e-12);
+      sum_z += r.depth[2];
+    }
+    EXPECT_NEAR(sum_z, 0, 1e-12);  // one ridge pushed up, the other down
+  }
+  std::remove(path.c_str());
+}
