@@ -15,6 +15,9 @@
 //
 // Reported: the whole detect() call as the time, its detection phase (broad and narrow)
 // and penetration-depth phase as the counters detection_ms and depth_ms, and the counts.
+// Each layout runs as the shipped default (vertex-in-tet between bodies), with edge
+// contacts (CollisionSettings::edge_contacts: the edge search is part of depth_ms), with
+// self-contact (self_collisions) and with both.
 #include <benchmark/benchmark.h>
 
 #include <array>
@@ -120,9 +123,12 @@ const World& scene(Layout s) {
 // reported as counters, averaged over the iterations: the phase split comes from the
 // same runs as the total (the machine is too noisy for separately timed benchmarks to
 // add up).
-void run(benchmark::State& state, Layout sc) {
+void run(benchmark::State& state, Layout sc, bool edges = false, bool self = false) {
   const World& w = scene(sc);
-  CollisionDetector det(w, {});
+  CollisionSettings set;
+  set.edge_contacts = edges;
+  set.self_collisions = self;
+  CollisionDetector det(w, set);
   std::vector<Collision> c;
   CollisionStats st;
   det.detect(w, nullptr, c, st);  // warm: buffers grown
@@ -142,16 +148,31 @@ void run(benchmark::State& state, Layout sc) {
   state.counters["border_points"] = static_cast<double>(st.border_points);
   state.counters["deep_fallbacks"] = static_cast<double>(st.deep_fallbacks);
   state.counters["surface_searches"] = static_cast<double>(st.surface_searches);
+  if (edges) {
+    state.counters["edge_crossings"] = static_cast<double>(st.edge_crossings);
+    state.counters["edge_contacts"] = static_cast<double>(st.edge_contacts);
+  }
+  if (self) state.counters["self_collisions"] = static_cast<double>(st.self_collisions);
   state.counters["tets"] = static_cast<double>(w.tets.size() / 4);
   state.counters["vertices"] = static_cast<double>(w.n_local());
 }
 
 void BM_Collide_Pile(benchmark::State& s) { run(s, Layout::pile); }
 void BM_Collide_Chains(benchmark::State& s) { run(s, Layout::chains); }
+void BM_Collide_Pile_Edges(benchmark::State& s) { run(s, Layout::pile, true); }
+void BM_Collide_Chains_Edges(benchmark::State& s) { run(s, Layout::chains, true); }
+void BM_Collide_Pile_Self(benchmark::State& s) { run(s, Layout::pile, false, true); }
+void BM_Collide_Chains_Self(benchmark::State& s) { run(s, Layout::chains, false, true); }
+void BM_Collide_Chains_SelfEdges(benchmark::State& s) { run(s, Layout::chains, true, true); }
 
 }  // namespace
 
 BENCHMARK(BM_Collide_Pile)->UseManualTime()->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Collide_Chains)->UseManualTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Collide_Pile_Edges)->UseManualTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Collide_Chains_Edges)->UseManualTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Collide_Pile_Self)->UseManualTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Collide_Chains_Self)->UseManualTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Collide_Chains_SelfEdges)->UseManualTime()->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();
