@@ -53,6 +53,7 @@ struct CollisionStats {
   std::int64_t entry_records = 0;       ///< records resolved towards where the point entered B (penetration_depth.hpp, item 5)
   std::int64_t redirected_depths = 0;   ///< consistent depths more than twice the nearest surface distance, replaced (item 6)
   std::int64_t self_collisions = 0;     ///< vertices inside a tet of their own object away from their star (records: self-contact)
+  std::int64_t self_objects = 0;        ///< objects tested for self-contact (the others cannot fold this step: self_culling.hpp)
   std::int64_t edge_crossings = 0;      ///< surface edge / surface triangle crossings between bodies at x~
   std::int64_t edge_contacts = 0;       ///< edge-edge records among `collisions`
   std::int64_t edge_unpaired = 0;       ///< crossing pairs left without a record
@@ -71,6 +72,9 @@ struct CollisionSettings {
   bool self_collisions = false;  ///< self-contact: a body's surface vertices against its own tets away from their star, with records
   bool edge_contacts = false;    ///< edge-edge contacts between bodies (docs/collision.md, "Edge contacts")
   double cell_size = 0;          ///< grid cell size [m]; 0: the average edge length of all tets
+  /// With self_collisions: skip the self query of objects that cannot have folded (an
+  /// exact test, self_culling.hpp). Off only to check that it changes nothing.
+  bool self_culling = true;
 };
 
 /// Spatial hashing (Teschner et al. 2003) and consistent penetration depth (Heidelberger

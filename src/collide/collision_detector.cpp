@@ -25,6 +25,7 @@
 #include "parallel.hpp"
 #include "penetration_depth.hpp"
 #include "point_in_tet.hpp"
+#include "self_culling.hpp"
 #include "smoothed_normals.hpp"
 #include "spatial_hash.hpp"
 #include "surface_bvh.hpp"
@@ -155,6 +156,9 @@ struct CollisionDetector::Impl {
   std::vector<DepthScratch> scratch;
   SurfaceEdges surface_edges;
   EdgeContactFinder edge_finder;
+  SelfCulling culling;                      // with self-collisions: which objects can fold
+  std::vector<std::uint8_t> self_active;    // per slot, this step
+  std::vector<double> self_delta;           // per slot: distance from the best rigid motion [m]
 
   Impl(const World& w, const CollisionSettings& s, const double* rest_x);
   void detect(const World& w, const double* x_prev, std::vector<Collision>& out, CollisionStats& st);
@@ -172,6 +176,7 @@ private:
 CollisionDetector::Impl::Impl(const World& w, const CollisionSettings& s, const double* rest_x)
     : settings(s), topo(build_collision_topology(w)) {
   if (settings.edge_contacts) surface_edges = build_surface_edges(w, topo);
+  if (settings.self_collisions) culling.build(w, topo, rest_x ? rest_x : w.x.data());
   double h = settings.cell_size > 0 ? settings.cell_size : topo.mean_edge_length;
   if (!(h > 0) || !std::isfinite(h)) h = 1;  // no edges at all: any size works
   grid.set_cell_size(h);
@@ -253,11 +258,10 @@ void CollisionDetector::Impl::find_partners(const double* x) {
 // misses it cannot hold any of them.
 void CollisionDetector::Impl::select_points(const World& w) {
   const double* x = w.x.data();
-  const bool self = settings.self_collisions;
   const std::size_t no = topo.objects.size();
   object_active.assign(no, 0);
   for (std::size_t k = 0; k < no; ++k)
-    object_active[k] = (self || !partners[k].empty()) && !object_box[k].empty() ? 1 : 0;
+    object_active[k] = (self_active[k] || !partners[k].empty()) && !object_box[k].empty() ? 1 : 0;
   object_points.resize(no);
   point_box.resize(no);
   parallel_for(no, [&](std::size_t k, int) {
@@ -268,7 +272,7 @@ void CollisionDetector::Impl::select_points(const World& w) {
     for (index_t v : topo.objects[k].surface_vertices) {
       if (bad_vertex[static_cast<std::size_t>(v)]) continue;
       const V3 p = load(x, v);
-      bool take = self;
+      bool take = self_active[k] != 0;
       for (std::size_t q = 0; !take && q < partners[k].size(); ++q)
         take = object_box[static_cast<std::size_t>(partners[k][q])].contains(p);
       if (!take) continue;
@@ -287,7 +291,7 @@ void CollisionDetector::Impl::select_points(const World& w) {
     // every foreign point that can be inside B, at O(partners) cost.
     Box fb;
     fb.reset();
-    if (self) {
+    if (self_active[b]) {
       fb = object_box[b];  // its own points may be inside it too
     } else if (object_active[b]) {
       for (std::int32_t a : partners[b]) {
@@ -343,7 +347,7 @@ void CollisionDetector::Impl::narrow_phase(const World& w, CollisionStats& st) {
     const CellRange r = grid.range_of(box);
     if (r.empty()) return;
     auto& passed = passed_buf[static_cast<std::size_t>(t)];
-    TetCandidate cand{w, topo, settings.self_collisions, static_cast<index_t>(e), slot, box, passed};
+    TetCandidate cand{w, topo, self_active[static_cast<std::size_t>(slot)] != 0, static_cast<index_t>(e), slot, box, passed};
     if (r.count() > static_cast<double>(grid.num_points())) {
       // A box spanning more cells than there are points (a tet stretched far by a
       // blown-up simulation): cheaper to test every point than to visit the cells.
@@ -500,6 +504,13 @@ void CollisionDetector::Impl::detect(const World& w, const double* x_prev, std::
   st = CollisionStats{};
   const auto t0 = std::chrono::steady_clock::now();
   scan_positions(w, x_prev, st);
+  if (settings.self_collisions) {
+    culling.update(w.x.data(), topo, bad_vertex.data(), self_active, self_delta);
+    if (!settings.self_culling) self_active.assign(topo.objects.size(), 1);
+    for (std::uint8_t a : self_active) st.self_objects += a;
+  } else {
+    self_active.assign(topo.objects.size(), 0);
+  }
   find_partners(w.x.data());
   select_points(w);
   narrow_phase(w, st);
