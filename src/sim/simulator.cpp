@@ -597,7 +597,10 @@ VerifyFrame Simulator::verify(bool full) {
         v[3 * static_cast<std::size_t>(gids[k]) + d] = all[6 * k + 3 + d];
       }
     VerifyOptions opt;
-    opt.interior = opt.crossings = opt.self = full;
+    opt.interior = opt.crossings = full;
+    // Self checks cost a pass over every surface edge against its own body: in the run only
+    // where the run claims self-contact (softcontact verify on the frames always has them).
+    opt.self = full && scene_.sim.self_collisions;
     opt.free_fall_speed = free_fall_speed_;
     f = verify_frame(*verify_mesh_, x.data(), v.data(), opt);
   }
