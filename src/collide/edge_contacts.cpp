@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <tuple>
 
@@ -69,6 +70,57 @@ bool touches_star(const CollisionTopology& topo, index_t v, const index_t* t) {
 V3 unit_normal(const double* x, const index_t* t) {
   const V3 a = load(x, t[0]), b = load(x, t[1]), c = load(x, t[2]);
   return normalized(cross(b - a, c - a));
+}
+
+// Item 6 of edge_contacts.hpp: e1 = (ia, ib) with one end (`end`, a vertex record along
+// `end_dir`, unit) inside B leaves B through its surface triangle `tri`. Fills the
+// record's weights, e2 and depth and returns true when e1 passes deeper under a rim edge
+// of `tri` than the end lies.
+bool one_end_rim_record(const World& w, const CollisionTopology& topo, const double* x, index_t ia, index_t ib,
+                        index_t end, const V3& end_dir, index_t tri, Collision& rec) {
+  const index_t* tt = &w.triangles[3 * static_cast<std::size_t>(tri)];
+  const V3 P = load(x, ia), u1 = load(x, ib) - P, E = load(x, end);
+  const V3 nt = unit_normal(x, tt);
+  double depth_of_least = 0, least = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 3; ++k) {
+    index_t ic = tt[k], id = tt[(k + 1) % 3];
+    if (w.vertex_gid[static_cast<std::size_t>(id)] < w.vertex_gid[static_cast<std::size_t>(ic)]) std::swap(ic, id);
+    // T', the other surface triangle on (ic, id).
+    index_t nb = -1;
+    for (std::size_t m = topo.tri_begin[static_cast<std::size_t>(ic)]; m < topo.tri_begin[static_cast<std::size_t>(ic) + 1]; ++m) {
+      const index_t r = topo.tri_of[m];
+      const index_t* tr = &w.triangles[3 * static_cast<std::size_t>(r)];
+      if (r != tri && (tr[0] == id || tr[1] == id || tr[2] == id)) nb = r;
+    }
+    if (nb < 0) continue;
+    const V3 C = load(x, ic), u2 = load(x, id) - C;
+    const V3 n0 = cross(u1, u2);
+    const double a11 = dot(u1, u1), a12 = dot(u1, u2), a22 = dot(u2, u2);
+    const double den = a11 * a22 - a12 * a12;
+    if (!(norm2(n0) > 1e-12 * a11 * a22 && den > 0)) continue;  // parallel
+    const V3 w0 = P - C;
+    const double b1 = dot(u1, w0), b2 = dot(u2, w0);
+    const double s = (a12 * b2 - a22 * b1) / den, u = (a11 * b2 - a12 * b1) / den;
+    if (!(s > 0 && s < 1 && u > 0 && u < 1)) continue;  // the common perpendicular within both edges
+    const V3 P1 = P + s * u1;
+    const V3 nn = unit_normal(x, &w.triangles[3 * static_cast<std::size_t>(nb)]);
+    // A convex rim (T's third corner behind T'), not a flat or nearly flat edge
+    // (|nt x nn|^2 >= 1/4: 30 degrees or more), and e1's point there behind T'.
+    if (norm2(cross(nt, nn)) < 0.25 || dot(nn, load(x, tt[(k + 2) % 3]) - C) >= 0 || dot(nn, P1 - C) >= 0) continue;
+    V3 n = normalized(n0);
+    if (dot(n, nt + nn) < 0) n = -1.0 * n;  // B's outside
+    if (dot(n, end_dir) < 0.8) continue;
+    const double depth = dot(n, (C + u * u2) - P1);
+    const double behind = -dot(nn, E - C);
+    if (!(depth > 0) || !std::isfinite(depth) || behind < 0 || !(behind < least)) continue;
+    least = behind;
+    depth_of_least = depth;
+    rec.point_weight = 1 - s;
+    rec.triangle = {ic, id, ic};
+    rec.weight = {1 - u, u, 0};
+    rec.depth = {depth * n[0], depth * n[1], depth * n[2]};
+  }
+  return depth_of_least > least;
 }
 
 }  // namespace
@@ -248,10 +300,14 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
 
   // 3. and 4. Pairs of crossings per (edge, body) to edge-edge records.
   vertex_records_.clear();
-  for (const Collision& c : out) vertex_records_.emplace_back(c.point, c.other_object);
+  for (std::size_t q = 0; q < out.size(); ++q) vertex_records_.emplace_back(out[q].point, out[q].other_object, q);
   std::sort(vertex_records_.begin(), vertex_records_.end());
+  auto first_record = [&](index_t v, std::int32_t object) {
+    return std::lower_bound(vertex_records_.begin(), vertex_records_.end(), std::make_tuple(v, object, std::size_t{0}));
+  };
   auto has_record = [&](index_t v, std::int32_t object) {
-    return std::binary_search(vertex_records_.begin(), vertex_records_.end(), std::make_pair(v, object));
+    const auto it = first_record(v, object);
+    return it != vertex_records_.end() && std::get<0>(*it) == v && std::get<1>(*it) == object;
   };
   const gid_t ntri = w.global_triangles;
   for (std::size_t g0 = 0; g0 < crossings_.size();) {
@@ -262,7 +318,31 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
     const index_t ia = E.a[e], ib = E.b[e];
     const std::int32_t other = topo.objects[static_cast<std::size_t>(crossings_[g0].slot)].object;
     const std::int32_t rec_object = topo.objects[static_cast<std::size_t>(cand_slot_[crossings_[g0].edge])].object;
-    if (has_record(ia, other) || has_record(ib, other)) {
+    const bool in_a = has_record(ia, other), in_b = has_record(ib, other);
+    if (in_a || in_b) {
+      // Item 6: one end inside, one crossing (leaving B from the inside end).
+      if (in_a != in_b && g1 - g0 == 1 && crossings_[g0].entering == in_b) {
+        const index_t end = in_a ? ia : ib;
+        V3 end_dir{0, 0, 0};  // the end's vertex records against B, in the order of `out`
+        for (auto it = first_record(end, other);
+             it != vertex_records_.end() && std::get<0>(*it) == end && std::get<1>(*it) == other; ++it) {
+          const Collision& c = out[std::get<2>(*it)];
+          end_dir = end_dir + V3{c.depth[0], c.depth[1], c.depth[2]};
+        }
+        Collision rec;
+        if (norm2(end_dir) > 0 &&
+            one_end_rim_record(w, topo, x, ia, ib, end, normalized(end_dir), crossings_[g0].tri, rec)) {
+          rec.point = ia;
+          rec.point2 = ib;
+          rec.point_gid = w.vertex_gid[static_cast<std::size_t>(ia)];
+          rec.triangle_gid =
+              ntri * (1 + w.vertex_gid[static_cast<std::size_t>(ib)]) + w.triangle_gid[static_cast<std::size_t>(crossings_[g0].tri)];
+          rec.object = rec_object;
+          rec.other_object = other;
+          out.push_back(rec);
+          ++counters.contacts;
+        }
+      }
       g0 = g1;
       continue;
     }

@@ -13,7 +13,7 @@
 //     one sign);
 //  3. per (edge e1 of A, body B), crossings in order along e1 pair up as (entering,
 //     exiting); skipped when an endpoint of e1 is already a vertex collision with B (the
-//     vertex response removes that overlap);
+//     vertex response removes that overlap), except item 6;
 //  4. a pair whose entry and exit triangles share an edge e2 of B is an edge-edge
 //     contact (e1, e2): e1 cuts through B under e2. n is e1 x e2, turned to B's outside
 //     (the sum of the two triangles' normals), P1 on e1 and P2 on e2 the closest points
@@ -25,6 +25,14 @@
 //     or the depth above is not positive. A rule for these that moved the middle of e1's
 //     inside part to the nearer triangle was tried and made an aligned stack worse
 //     (docs/collision.md, "Edge contacts").
+//  6. one end of e1 inside B (a vertex record) and one crossing, through T: where e1
+//     passes under a rim edge e2 of T (T and its neighbour T' across e2 at 30 degrees or
+//     more, convex), the part of e1 near e2 can be deeper than the end, which the vertex
+//     response alone leaves crossing. A record as in item 4 for (e1, e2), taken only
+//     when n points within 37 degrees of the end's own vertex record (else the two push
+//     the end apart), and when the crossing is deeper than the end lies behind T'; of
+//     T's edges, the one whose T' the end lies least far behind (at a box corner, the
+//     bottom rather than a side). docs/collision.md, "Edge contacts", item 6.
 // The record is a Collision whose point side is the edge (point a, point2 b, weights
 // 1 - s and s) and whose "triangle" side is e2 (c, d, weights 1 - u and u; the third
 // entry repeats c with weight 0). The same interlock is usually found again from B's
@@ -41,6 +49,7 @@
 // Keys: point_gid = gid(a), triangle_gid = global_triangles * (1 + gid(b)) + gid(T_in):
 // never a real triangle's id, unique per (edge, entry triangle), independent of ranks.
 #include <cstdint>
+#include <tuple>
 #include <vector>
 
 #include "collision_topology.hpp"
@@ -106,7 +115,8 @@ private:
   std::vector<std::vector<Crossing>> buf_;
   std::vector<std::vector<std::uint32_t>> passed_;  // per thread: pieces that passed the box test
   std::vector<Crossing> crossings_;
-  std::vector<std::pair<index_t, std::int32_t>> vertex_records_;  // (point, other object) of vertex records
+  /// (point, other object, index in `out`) of the vertex records, sorted.
+  std::vector<std::tuple<index_t, std::int32_t, std::size_t>> vertex_records_;
 };
 
 }  // namespace softcontact::collide

@@ -8,6 +8,7 @@
 # continue a checkpoint written at step 400 by a 1-rank run; chess500's first contact is at
 # step 28, so it runs from the start. The colliding-point counts of diagnostics.csv are
 # asserted > 0 at every frame after the first contact, so the runs do exercise contact.
+# Then two small scenes with edge and self-contact records (see below).
 # Usage: mpi_scenes_test.sh EXE MPIEXEC INPUTS_DIR WORK
 set -u
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -57,6 +58,37 @@ for name in tori chess; do
       if cmp -s <(cut -d, -f1-13 "$dir/diagnostics.csv") <(cut -d, -f1-13 "$ref/diagnostics.csv"); then ok; else
         bad "$dir/diagnostics.csv differs from $ref:"; diff <(cut -d, -f1-13 "$dir/diagnostics.csv") <(cut -d, -f1-13 "$ref/diagnostics.csv") | head -6
       fi
+    done
+  done
+done
+
+# The two small scenes of issue 15 whose records cross ranks: aligned_stack.yaml (edge
+# records of both kinds of docs/collision.md "Edge contacts", items 4 and 6, between the
+# two boxes) and ring_squeeze.yaml with edge contacts on as well (vertex and edge
+# self-contact records), whole, on 2 and 3 ranks with 1 and 2 threads, bitwise equal to 1
+# rank and 1 thread. Each must have edge records (diagnostics column edge_contacts) in
+# some row.
+scenes=$here/../data/scenes
+sed 's/^  self_collisions: true/  self_collisions: true\n  edge_contacts: true/' "$scenes/ring_squeeze.yaml" > ring_edges.yaml
+grep -q '^  edge_contacts: true' ring_edges.yaml && ok || bad "ring_edges.yaml: edge_contacts not set"
+for scene in "$scenes/aligned_stack.yaml" ring_edges.yaml; do
+  name=$(basename "$scene" .yaml)
+  for np in 1 2 3; do
+    for nt in 1 2; do
+      [ "$np$nt" = 12 ] && continue
+      dir=${name}_r${np}_t${nt}
+      expect 0 "on $np rank\(s\) x $nt thread\(s\)" -- "$mpiexec" --oversubscribe --bind-to none -n "$np" \
+        env OMP_NUM_THREADS="$nt" "$exe" run "$scene" --output-every 100 --output "$dir" --quiet
+      if [ "$np$nt" = 11 ]; then
+        awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) if ($i == "edge_contacts") c = i; next }
+          $c + 0 > 0 { n++ } END { exit !(c && n > 0) }' "$dir/diagnostics.csv" && ok ||
+          bad "$dir: no edge records in any diagnostics row"
+        continue
+      fi
+      ref=${name}_r1_t1
+      out=$($check "$dir" "$ref" --min-frames 5 --same-count 2>&1) && ok || bad "$dir: $out"
+      cmp -s <(cut -d, -f1-13 "$dir/diagnostics.csv") <(cut -d, -f1-13 "$ref/diagnostics.csv") && ok ||
+        bad "$dir/diagnostics.csv differs from $ref"
     done
   done
 done
