@@ -123,6 +123,72 @@ bool one_end_rim_record(const World& w, const CollisionTopology& topo, const dou
   return depth_of_least > least;
 }
 
+// Vertex v behind the planes of both surface triangles bordering edge e (inside the
+// edge's body there, for a convex edge).
+bool behind_both_triangles(const World& w, const double* x, const SurfaceEdges& E, std::size_t e, index_t v) {
+  const V3 V = load(x, v);
+  for (const index_t t : {E.tri0[e], E.tri1[e]}) {
+    if (t < 0) return false;
+    const index_t* tr = &w.triangles[3 * static_cast<std::size_t>(t)];
+    if (!(dot(unit_normal(x, tr), V - load(x, tr[0])) < 0)) return false;
+  }
+  return true;
+}
+
+// Item 7 of edge_contacts.hpp: e1 = P Q enters B through T_in at parameter t_in and
+// leaves through T_out at t_out, two triangles that share only the vertex v (not inside
+// A): the chord between the two crossings lies behind the planes of v's fan, the local
+// tent of B around v. The record moves the chord out by the smallest of: for each fan
+// plane, the distance that puts the whole chord in front of it; and for the bisector of
+// T_in and T_out, the distance that brings the chord's deepest point under both (where
+// the two planes are equally far) onto their ridge. Returns the parameter s of e1 nearest
+// to v (the weights 1 - s, s) and the penetration vector d.
+bool under_vertex_record(const World& w, const CollisionTopology& topo, const double* x, const V3& P, const V3& Q,
+                         double t_in, index_t tri_in, double t_out, index_t tri_out, index_t v, double& s, V3& d) {
+  const V3 V = load(x, v), u1 = Q - P;
+  const V3 c0 = P + t_in * u1, c1 = P + t_out * u1;  // the chord's ends, on T_in and T_out
+  // Ties (the two triangles of a flat quad give the same move up to rounding) go to the
+  // lower global triangle id, the bisector last: the same choice on any rank, whatever
+  // the local order of the fan.
+  double best = std::numeric_limits<double>::infinity();
+  gid_t best_key = std::numeric_limits<gid_t>::max();
+  V3 n{0, 0, 0};
+  auto consider = [&](double dk, const V3& nk, gid_t key) {
+    if (dk > 0 && std::isfinite(dk) && (dk < best || (dk == best && key < best_key))) {
+      best = dk;
+      best_key = key;
+      n = nk;
+    }
+  };
+  const std::size_t f0 = topo.tri_begin[static_cast<std::size_t>(v)], f1 = topo.tri_begin[static_cast<std::size_t>(v) + 1];
+  for (std::size_t k = f0; k < f1; ++k) {
+    const auto r = static_cast<std::size_t>(topo.tri_of[k]);
+    const V3 nk = unit_normal(x, &w.triangles[3 * r]);
+    consider(std::max(-dot(nk, c0 - V), -dot(nk, c1 - V)), nk, w.triangle_gid[r]);
+  }
+  // How far P + t u1 lies behind T_in's and T_out's planes is linear in t, and zero at
+  // the chord's end on that plane: the two are equal at t*, the chord's deepest point
+  // under both.
+  const V3 ni = unit_normal(x, &w.triangles[3 * static_cast<std::size_t>(tri_in)]);
+  const V3 no = unit_normal(x, &w.triangles[3 * static_cast<std::size_t>(tri_out)]);
+  const V3 m = ni + no;
+  const double gi = -dot(ni, u1), go = -dot(no, u1);
+  if (norm2(m) > 0 && gi != go) {
+    const double bi = -dot(ni, P - V), bo = -dot(no, P - V);
+    const double ts = (bo - bi) / (gi - go);
+    if (ts > std::min(t_in, t_out) && ts < std::max(t_in, t_out)) {
+      const V3 nb = normalized(m);
+      const double c = dot(nb, ni);  // cos of half the angle between the normals
+      if (c > 0) consider((bi + gi * ts) / c, nb, std::numeric_limits<gid_t>::max() - 1);
+    }
+  }
+  if (!std::isfinite(best)) return false;
+  const double a11 = dot(u1, u1);
+  s = a11 > 0 ? std::clamp(dot(V - P, u1) / a11, 0.0, 1.0) : 0.5;
+  d = best * n;
+  return true;
+}
+
 }  // namespace
 
 void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& out, EdgeCounters& counters) {
@@ -362,9 +428,11 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
           if (ti[i] == to[j]) shared[ns++] = ti[i];
-      // A vertex of B that is itself inside A (a vertex record): the fan around it is
-      // where e1 crosses, and the vertex response already removes that overlap.
-      if (ns == 1 && has_record(shared[0], rec_object)) continue;
+      // A vertex of B that is itself inside A, behind both of A's triangles at e1: the
+      // fan around it is where e1 crosses, and its own vertex record removes that
+      // overlap. (Tested here, not by its record: B may be a ghost whose records are
+      // made on its owner's rank.)
+      if (ns == 1 && behind_both_triangles(w, x, E, e, shared[0])) continue;
       const gid_t key = ntri * (1 + w.vertex_gid[static_cast<std::size_t>(ib)]) + w.triangle_gid[static_cast<std::size_t>(cin.tri)];
       const V3 P = load(x, ia), Q = load(x, ib);
       Collision rec;
@@ -399,6 +467,17 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
             rec.depth = {depth * n[0], depth * n[1], depth * n[2]};
             edge_edge = true;
           }
+        }
+      }
+      if (ns == 1) {  // item 7: e1 under a vertex v of B that is not inside A
+        double sv;
+        V3 dv;
+        if (under_vertex_record(w, topo, x, P, Q, cin.t, cin.tri, cout.t, cout.tri, shared[0], sv, dv)) {
+          rec.point_weight = 1 - sv;
+          rec.triangle = {shared[0], shared[0], shared[0]};
+          rec.weight = {1, 0, 0};
+          rec.depth = {dv[0], dv[1], dv[2]};
+          edge_edge = true;
         }
       }
       if (!edge_edge) {

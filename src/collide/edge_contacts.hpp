@@ -20,9 +20,9 @@
 //     of the two lines at parameters s and u, and the depth is n . (P2 - P1) > 0: e1
 //     must move that far along n (or e2 back) for the two edges to touch instead of
 //     crossing.
-//  5. otherwise no record (counted as unpaired): the triangles share a vertex or nothing
-//     (e1 passes through a fold of B's surface), e1 and e2 are parallel (aligned rims),
-//     or the depth above is not positive. A rule for these that moved the middle of e1's
+//  5. otherwise no record (counted as unpaired): the triangles share nothing (e1
+//     passes through a fold of B's surface, or through a thin part of B), e1 and e2 are
+//     parallel (aligned rims), the depth above is not positive, or item 7 finds none. A rule for these that moved the middle of e1's
 //     inside part to the nearer triangle was tried and made an aligned stack worse
 //     (docs/collision.md, "Edge contacts").
 //  6. one end of e1 inside B (a vertex record) and one crossing, through T: where e1
@@ -33,6 +33,13 @@
 //     the end apart), and when the crossing is deeper than the end lies behind T'; of
 //     T's edges, the one whose T' the end lies least far behind (at a box corner, the
 //     bottom rather than a side). docs/collision.md, "Edge contacts", item 6.
+//  7. the entry and exit triangles share only a vertex v of B, which is not inside A:
+//     e1 passes under v, its chord between the two crossings behind the planes of v's
+//     fan (the local tent of B at v). A record between e1 (weights from the point of e1
+//     nearest to v) and v alone, moving the chord out by the smallest of: for each fan
+//     plane, the distance that puts the whole chord in front of it; for the bisector of
+//     the two crossed triangles, the distance that brings the chord's deepest point
+//     under both onto their ridge. docs/collision.md, "Edge contacts", item 7.
 // The record is a Collision whose point side is the edge (point a, point2 b, weights
 // 1 - s and s) and whose "triangle" side is e2 (c, d, weights 1 - u and u; the third
 // entry repeats c with weight 0). The same interlock is usually found again from B's

@@ -63,7 +63,7 @@ for name in tori chess; do
 done
 
 # The two small scenes of issue 15 whose records cross ranks: aligned_stack.yaml (edge
-# records of both kinds of docs/collision.md "Edge contacts", items 4 and 6, between the
+# records of docs/collision.md "Edge contacts", items 4, 6 and 7, between the
 # two boxes) and ring_squeeze.yaml with edge contacts on as well (vertex and edge
 # self-contact records), whole, on 2 and 3 ranks with 1 and 2 threads, bitwise equal to 1
 # rank and 1 thread. Each must have edge records (diagnostics column edge_contacts) in

@@ -262,3 +262,87 @@ TEST(EdgeContacts, SelfCrossingOfOneBodyGivesTheSameRecords) {
   }
   std::remove(path.c_str());
 }
+
+namespace {
+
+// Item 7 of edge_contacts.hpp, exactly: B is a square pyramid standing on its apex V at
+// the origin (two tets; base 0.1 x 0.1 at z = 0.1, so its four side faces are the planes
+// |x| = z / 2 and |y| = z / 2, meeting only at V), kinematic. A is one tet whose edge
+// e1 = (p0, p1) runs along y at x = eps, z = h, from y = -0.05 to 0.05, its other two
+// corners 1 mm higher and far off (x = eps -+ 0.2, y = 0.2): e1 passes through B's faces y = -z/2 and y = z/2 (which
+// share only V) above V, and no vertex of either lies inside the other. The chord of e1
+// inside B lies behind the plane x = z/2 by (h/2 - eps) / sqrt(5/4) everywhere, the
+// smallest of the moves of the rule (the bisector of the two crossed faces would move it
+// down by h, the face x = -z/2 by (h/2 + eps) / sqrt(5/4)).
+void write_msh(const std::string& path, const std::vector<std::array<double, 3>>& p,
+               const std::vector<std::array<int, 4>>& tets) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  ASSERT_NE(f, nullptr);
+  std::fprintf(f, "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n%zu\n", p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) std::fprintf(f, "%zu %.17g %.17g %.17g\n", i + 1, p[i][0], p[i][1], p[i][2]);
+  std::fprintf(f, "$EndNodes\n$Elements\n%zu\n", tets.size());
+  for (std::size_t i = 0; i < tets.size(); ++i)
+    std::fprintf(f, "%zu 4 2 1 1 %d %d %d %d\n", i + 1, tets[i][0], tets[i][1], tets[i][2], tets[i][3]);
+  std::fprintf(f, "$EndElements\n");
+  std::fclose(f);
+}
+
+Scene apex_scene(double h, double eps) {
+  const std::string dir = testing::TempDir();
+  // 1-based: V, then the base corners counter-clockwise seen from above.
+  write_msh(dir + "pyramid.msh", {{0, 0, 0}, {0.05, 0.05, 0.1}, {-0.05, 0.05, 0.1}, {-0.05, -0.05, 0.1}, {0.05, -0.05, 0.1}},
+            {{{1, 2, 3, 4}}, {{1, 2, 4, 5}}});
+  write_msh(dir + "wedge.msh", {{eps, -0.05, h}, {eps, 0.05, h}, {eps - 0.2, 0.2, h + 0.001}, {eps + 0.2, 0.2, h + 0.001}},
+            {{{1, 2, 3, 4}}});
+  return load_scene_from_string(std::string(kMaterials) + "objects:\n  - {name: pyramid, material: m, mesh: " + dir +
+                                    "pyramid.msh, kinematic: true}\n  - {name: wedge, material: m, mesh: " + dir +
+                                    "wedge.msh}\n",
+                                "t.yaml");
+}
+
+}  // namespace
+
+// The record of item 7: the point side e1 with weights 1/2 (V's nearest point on e1 is
+// its middle), the other side V alone, depth (h/2 - eps) / sqrt(5/4) along the outward
+// normal (1, 0, -1/2) / sqrt(5/4) of the face x = z/2. (The pyramid's four edges from V
+// also pass through the thin wedge: item 4 records of their own.) Then the response to
+// this record alone (B kinematic, all of it an old overlap at an unlimited separation
+// speed) moves e1 onto that face: e1 no longer passes through the pyramid.
+TEST(EdgeContacts, EdgeUnderAVertexMovesOutThroughTheNearestFace) {
+  const double h = 0.01, eps = 0.001;
+  const Scene scene = apex_scene(h, eps);
+  World w = build_world(scene, block_partition(scene, 1), 0);
+  w.x_prev = w.x;
+  CollisionDetector det(w, with_edges());
+  std::vector<Collision> c;
+  CollisionStats st;
+  det.detect(w, nullptr, c, st);
+  EXPECT_EQ(st.colliding_points, 0);
+  EXPECT_EQ(st.edge_unpaired, 0);
+  const index_t apex = 0;  // the pyramid's first vertex
+  std::vector<Collision> under;
+  for (const Collision& q : c)
+    if (q.object == 1 && q.triangle[0] == apex && q.triangle[1] == apex) under.push_back(q);
+  ASSERT_EQ(under.size(), 1u);
+  const Collision& r = under[0];
+  EXPECT_EQ(r.other_object, 0);
+  ASSERT_GE(r.point2, 0);
+  EXPECT_EQ(r.weight[0], 1);
+  EXPECT_NEAR(r.point_weight, 0.5, 1e-12);
+  const double k = std::sqrt(1.25), d = (h / 2 - eps) / k;
+  EXPECT_NEAR(r.depth[0], d / k, 1e-12);
+  EXPECT_NEAR(r.depth[1], 0, 1e-12);
+  EXPECT_NEAR(r.depth[2], -0.5 * d / k, 1e-12);
+
+  Scene s2 = scene;
+  s2.sim.separation_speed = 1e3;
+  ContactSolver solver(s2, w);
+  ContactStats cs;
+  solver.respond(w, under, 1e-3, cs, nullptr);
+  for (index_t v : {r.point, r.point2}) {  // on the plane x = z / 2
+    const double* p = &w.x[3 * static_cast<std::size_t>(v)];
+    EXPECT_NEAR(p[0], p[2] / 2, 1e-12);
+  }
+  det.detect(w, nullptr, c, st);
+  for (const Collision& q : c) EXPECT_FALSE(q.object == 1 && q.triangle[0] == apex && q.triangle[1] == apex);
+}
