@@ -72,6 +72,20 @@ V3 unit_normal(const double* x, const index_t* t) {
   return normalized(cross(b - a, c - a));
 }
 
+// The lines P + s u1 and C + u u2: their closest points' parameters (unclamped) and
+// the unnormalised common normal u1 x u2. False when they are parallel or nearly so.
+bool closest_line_params(const V3& P, const V3& u1, const V3& C, const V3& u2, double& s, double& u, V3& n0) {
+  n0 = cross(u1, u2);
+  const double a11 = dot(u1, u1), a12 = dot(u1, u2), a22 = dot(u2, u2);
+  const double den = a11 * a22 - a12 * a12;
+  if (!(norm2(n0) > 1e-12 * a11 * a22 && den > 0)) return false;
+  const V3 w0 = P - C;
+  const double b1 = dot(u1, w0), b2 = dot(u2, w0);
+  s = (a12 * b2 - a22 * b1) / den;
+  u = (a11 * b2 - a12 * b1) / den;
+  return true;
+}
+
 // Item 6 of edge_contacts.hpp: e1 = (ia, ib) with one end (`end`, a vertex record along
 // `end_dir`, unit) inside B leaves B through its surface triangle `tri`. Fills the
 // record's weights, e2 and depth and returns true when e1 passes deeper under a rim edge
@@ -94,13 +108,9 @@ bool one_end_rim_record(const World& w, const CollisionTopology& topo, const dou
     }
     if (nb < 0) continue;
     const V3 C = load(x, ic), u2 = load(x, id) - C;
-    const V3 n0 = cross(u1, u2);
-    const double a11 = dot(u1, u1), a12 = dot(u1, u2), a22 = dot(u2, u2);
-    const double den = a11 * a22 - a12 * a12;
-    if (!(norm2(n0) > 1e-12 * a11 * a22 && den > 0)) continue;  // parallel
-    const V3 w0 = P - C;
-    const double b1 = dot(u1, w0), b2 = dot(u2, w0);
-    const double s = (a12 * b2 - a22 * b1) / den, u = (a11 * b2 - a12 * b1) / den;
+    double s, u;
+    V3 n0;
+    if (!closest_line_params(P, u1, C, u2, s, u, n0)) continue;  // parallel
     if (!(s > 0 && s < 1 && u > 0 && u < 1)) continue;  // the common perpendicular within both edges
     const V3 P1 = P + s * u1;
     const V3 nn = unit_normal(x, &w.triangles[3 * static_cast<std::size_t>(nb)]);
@@ -448,17 +458,14 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
         if (w.vertex_gid[static_cast<std::size_t>(id)] < w.vertex_gid[static_cast<std::size_t>(ic)]) std::swap(ic, id);
         const V3 C = load(x, ic), D = load(x, id);
         const V3 u1 = Q - P, u2 = D - C;
-        const V3 n0 = cross(u1, u2);
-        const double a11 = dot(u1, u1), a12 = dot(u1, u2), a22 = dot(u2, u2);
-        const double den = a11 * a22 - a12 * a12;
-        if (norm2(n0) > 1e-12 * a11 * a22 && den > 0) {  // else parallel (aligned rims): no record
+        double s, u;
+        V3 n0;
+        if (closest_line_params(P, u1, C, u2, s, u, n0)) {  // else parallel (aligned rims): no record
           V3 n = normalized(n0);
           const V3 outward = unit_normal(x, ti) + unit_normal(x, to);
           if (dot(n, outward) < 0) n = -1.0 * n;
-          const V3 w0 = P - C;
-          const double b1 = dot(u1, w0), b2 = dot(u2, w0);
-          const double s = std::clamp((a12 * b2 - a22 * b1) / den, 0.0, 1.0);
-          const double u = std::clamp((a11 * b2 - a12 * b1) / den, 0.0, 1.0);
+          s = std::clamp(s, 0.0, 1.0);
+          u = std::clamp(u, 0.0, 1.0);
           const double depth = dot(n, (C + u * u2) - (P + s * u1));
           if (depth > 0 && std::isfinite(depth)) {
             rec.point_weight = 1 - s;

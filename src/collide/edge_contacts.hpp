@@ -22,9 +22,9 @@
 //     crossing.
 //  5. otherwise no record (counted as unpaired): the triangles share nothing (e1
 //     passes through a fold of B's surface, or through a thin part of B), e1 and e2 are
-//     parallel (aligned rims), the depth above is not positive, or item 7 finds none. A rule for these that moved the middle of e1's
-//     inside part to the nearer triangle was tried and made an aligned stack worse
-//     (docs/collision.md, "Edge contacts").
+//     parallel (aligned rims), the depth above is not positive, or item 7 finds none.
+//     A rule for these that moved the middle of e1's inside part to the nearer triangle
+//     was tried and made an aligned stack worse (docs/collision.md, "Edge contacts").
 //  6. one end of e1 inside B (a vertex record) and one crossing, through T: where e1
 //     passes under a rim edge e2 of T (T and its neighbour T' across e2 at 30 degrees or
 //     more, convex), the part of e1 near e2 can be deeper than the end, which the vertex
@@ -42,7 +42,8 @@
 //     under both onto their ridge. docs/collision.md, "Edge contacts", item 7.
 // The record is a Collision whose point side is the edge (point a, point2 b, weights
 // 1 - s and s) and whose "triangle" side is e2 (c, d, weights 1 - u and u; the third
-// entry repeats c with weight 0). The same interlock is usually found again from B's
+// entry repeats c with weight 0), or for item 7 the vertex v alone ((v, v, v), weights
+// (1, 0, 0)). The same interlock is usually found again from B's
 // side (e2 through A's two triangles at e1), a mirror record with the same pushes on
 // the same four vertices; the response's shares (docs/contact.md) split such a vertex
 // two ways, so the pair is corrected once, not twice.
