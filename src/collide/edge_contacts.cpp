@@ -239,10 +239,13 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
   // The grid holds points: each candidate edge goes in as the midpoints of pieces no
   // longer than a cell, so that a triangle's box grown by half a cell finds every edge
   // that can cross it (one long edge, a floor's or a wall's, would otherwise grow every
-  // triangle's query box to its own length).
+  // triangle's query box to its own length). Each piece carries its own box: a crossing
+  // point lies on some piece, so a triangle needs only the pieces whose box meets its
+  // own, and most of the pieces its grown box finds are rejected by that one test.
   const double cell = in.cell_size;
   mid_.clear();
   seg_edge_.clear();
+  piece_box_.clear();
   cand_pq_.resize(6 * cand_.size());
   for (std::size_t i = 0; i < cand_.size(); ++i) {
     const V3 p = load(x, E.a[cand_[i]]), q = load(x, E.b[cand_[i]]);
@@ -253,11 +256,19 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
     const double len = std::sqrt(norm2(q - p));
     const double pieces = std::ceil(len / cell);
     const int k = pieces > 1 && pieces < 1024 ? static_cast<int>(pieces) : 1;
+    // The rounded piece ends lie within a few ulps of the exact ones: grown by 1e-9 of
+    // the edge, the boxes still cover the whole edge.
+    const double grow = 1e-9 * len;
+    V3 from = p;
     for (int j = 0; j < k; ++j) {
+      const V3 to = j + 1 == k ? q : p + (static_cast<double>(j + 1) / k) * (q - p);
       const V3 m = p + ((j + 0.5) / k) * (q - p);
       for (int d = 0; d < 3; ++d) mid_.push_back(m[static_cast<std::size_t>(d)]);
+      for (std::size_t d = 0; d < 3; ++d) piece_box_.push_back(std::min(from[d], to[d]) - grow);
+      for (std::size_t d = 0; d < 3; ++d) piece_box_.push_back(std::max(from[d], to[d]) + grow);
       seg_edge_.push_back(static_cast<std::uint32_t>(i));
       seg_slot_.push_back(cand_slot_[i]);
+      from = to;
     }
     half = std::max(half, 0.5 * len / k);
   }
@@ -265,6 +276,14 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
   std::iota(cand_index_.begin(), cand_index_.end(), index_t{0});
   grid_.set_cell_size(cell);
   grid_.insert_points(mid_.data(), cand_index_, seg_slot_.data());
+  // The pieces' boxes and candidates in the grid's order: a run of cells is a run here.
+  sorted_box_.resize(piece_box_.size());
+  sorted_edge_.resize(seg_edge_.size());
+  for (std::size_t k = 0; k < seg_edge_.size(); ++k) {
+    const auto piece = static_cast<std::size_t>(grid_.point(k));
+    for (std::size_t d = 0; d < 6; ++d) sorted_box_[6 * k + d] = piece_box_[6 * piece + d];
+    sorted_edge_[k] = seg_edge_[piece];
+  }
 
   // Per object B, where its triangles can meet a partner's candidate edge.
   tri_box_.resize(no);
@@ -306,7 +325,6 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
     }
     const CellRange range = grid_.range_of(box);
     auto& mine = buf_[static_cast<std::size_t>(th)];
-    const double* px = grid_.sorted_x();
     const Box tight = [&] {
       Box t;
       t.reset();
@@ -316,32 +334,28 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
       return t;
     }();
     const V3 nrm = cross(b - a, c - a);
-    // Pass 1, branch-free over the runs (contiguous): pieces whose midpoint is in the
-    // grown box and that belong to another object. Pass 2 on the few collected: the
-    // edge's box against the triangle's, both endpoints on one side of its plane, then
-    // the exact test.
+    // Pass 1, branch-free over the runs (contiguous): pieces of another object whose box
+    // meets the triangle's. Pass 2 on the few collected: both endpoints on one side of
+    // its plane, then the exact test.
     auto& passed = passed_[static_cast<std::size_t>(th)];
     std::size_t n = 0;
     const std::int32_t* label = grid_.sorted_label();
+    const double* pb = sorted_box_.data();
     auto collect = [&](std::size_t k0, std::size_t k1) {
       if (passed.size() < n + (k1 - k0)) passed.resize(2 * (n + (k1 - k0)));
       std::uint32_t* outp = passed.data();
       for (std::size_t k = k0; k < k1; ++k) {
-        const double* m = px + 3 * k;
-        const bool in = (m[0] >= box.lo[0]) & (m[0] <= box.hi[0]) & (m[1] >= box.lo[1]) & (m[1] <= box.hi[1]) &
-                        (m[2] >= box.lo[2]) & (m[2] <= box.hi[2]) & (self_on | (label[k] != slot));
+        const double* m = pb + 6 * k;
+        const bool in = (m[0] <= tight.hi[0]) & (m[3] >= tight.lo[0]) & (m[1] <= tight.hi[1]) & (m[4] >= tight.lo[1]) &
+                        (m[2] <= tight.hi[2]) & (m[5] >= tight.lo[2]) & (self_on | (label[k] != slot));
         outp[n] = static_cast<std::uint32_t>(k);
         n += in;
       }
     };
     auto test = [&]() {
       for (std::size_t j = 0; j < n; ++j) {
-        const std::uint32_t i = seg_edge_[static_cast<std::size_t>(grid_.point(passed[j]))];
+        const std::uint32_t i = sorted_edge_[passed[j]];
         const double* pq = &cand_pq_[6 * static_cast<std::size_t>(i)];
-        bool apart = false;
-        for (std::size_t d = 0; d < 3; ++d)
-          apart |= std::min(pq[d], pq[3 + d]) > tight.hi[d] || std::max(pq[d], pq[3 + d]) < tight.lo[d];
-        if (apart) continue;
         if (self_on && cand_slot_[i] == slot) {  // self-contact: not the edge's own neighbourhood
           const std::size_t e = cand_[i];
           if (touches_star(topo, E.a[e], t) || touches_star(topo, E.b[e], t)) continue;

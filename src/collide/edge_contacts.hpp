@@ -118,6 +118,9 @@ private:
   std::vector<double> mid_;                // midpoints of the candidates' pieces (pieces, 3)
   std::vector<std::uint32_t> seg_edge_;    // candidate of each piece
   std::vector<std::int32_t> seg_slot_;     // object slot of each piece
+  std::vector<double> piece_box_;          // box of each piece (pieces, 6: lo, hi)
+  std::vector<double> sorted_box_;         // the same in the grid's order
+  std::vector<std::uint32_t> sorted_edge_; // candidate of each piece, in the grid's order
   std::vector<Box> cand_box_;              // per slot: box of its candidate edges
   std::vector<Box> tri_box_;               // per slot: where its triangles can meet a candidate
   std::vector<std::vector<Crossing>> buf_;
