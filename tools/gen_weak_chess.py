@@ -69,6 +69,7 @@ HEADER = """\
 # {pieces} pieces, {containers} container objects; {verts:,} vertices and {tets:,} tets
 # ({n} x 52,202 and {n} x 91,311).
 simulation:
+  self_collisions: true
   dt: auto
   dt_safety: 0.8
   end_time: 1.2

@@ -178,6 +178,7 @@ struct VerifyMaxima {
   VerifyPeak self_count, self_depth, self_crossings, self_crossing_depth;
   VerifyPeak crossings, crossings_without_inside_vertex, crossing_depth;
   VerifyPeak inverted, nonfinite, max_speed, speed_ratio;
+  gid_t fastest_vertex = -1;                   ///< the vertex of max_speed (the first check's on a tie)
   VerifyFrame deepest;                         ///< the check with the deepest surface vertex
 
   void add(const VerifyFrame& f);

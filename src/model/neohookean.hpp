@@ -13,9 +13,12 @@
 // zero energy (it does not change any force). lambda' > 0 for every Poisson ratio in
 // (-1, 0.5), so the model is defined for all valid materials.
 //
-// Unlike StVK, the energy grows without bound as J -> 0 and stays finite and smooth
-// through inversion (J < 0): inverted elements are pushed back out, with no
-// special-casing and no singular value decomposition.
+// Unlike StVK, the energy does not soften under compression, and it stays finite and
+// smooth through inversion (J < 0): at J = 0 the volume term's force lambda' a cof(F)
+// points towards J > 0, so inverted elements are pushed back out, with no
+// special-casing and no singular value decomposition. It is no barrier (nothing grows
+// without bound as J -> 0, unlike the classical log J form): a large enough load holds
+// an element inverted.
 //
 //   dP = mu'(1 - 1/(I_C+1)) dF + 2 mu' (F:dF) / (I_C+1)^2 F
 //        + lambda' (cof(F):dF) cof(F) + lambda' (J - a) dcof(F)[dF]

@@ -435,7 +435,10 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
          << verify_max.self_crossing_depth.value << "; crossings at most " << verify_max.crossings.value << " ("
          << verify_max.crossings_without_inside_vertex.value << " with no vertex inside), deepest "
          << verify_max.crossing_depth.value << "; inverted tets at most " << verify_max.inverted.value
-         << "; speed at most " << verify_max.speed_ratio.value << " x free fall\n";
+         << "; speed at most " << verify_max.speed_ratio.value << " x free fall";
+    if (verify_max.fastest_vertex >= 0)
+      line << " (step " << verify_max.max_speed.step << ": vertex " << verify_max.fastest_vertex << ")";
+    line << "\n";
     log << line.str();
     std::ostringstream js;
     js << "{\"every\": " << verify_every << ", \"first_step\": " << first << ", \"last_step\": " << step

@@ -389,7 +389,8 @@ int verify_output(const std::string& dir_arg, const VerifyOutputOptions& opt, st
         << "  inverted tets: at most " << static_cast<long long>(worst.inverted.value) << ", " << last.inverted
         << " at the last frame\n"
         << "  fastest vertex: " << fmt("%.4g", worst.max_speed.value) << " m/s, "
-        << fmt("%.3g", worst.speed_ratio.value) << " x v_ff\n";
+        << fmt("%.3g", worst.speed_ratio.value) << " x v_ff (vertex " << worst.fastest_vertex << ", t = "
+        << fmt("%.6g", worst.max_speed.time) << " s)\n";
   }
   for (const std::string& v : violations) out << "  exceeded: " << v << "\n";
   out << (pass ? "PASS" : "FAIL") << ": limits surface depth "

@@ -100,6 +100,7 @@ void VerifyMaxima::add(const VerifyFrame& f) {
   peak(crossing_depth, f.crossing_depth(), f);
   peak(inverted, static_cast<double>(f.inverted), f);
   peak(nonfinite, static_cast<double>(f.nonfinite), f);
+  if (max_speed.step < 0 || f.max_speed > max_speed.value) fastest_vertex = f.fastest;
   peak(max_speed, f.max_speed, f);
   peak(speed_ratio, f.speed_ratio, f);
 }
@@ -130,6 +131,7 @@ std::string to_json(const VerifyMaxima& m) {
   j.key("crossing_depth_edges").raw(peak_json(m.crossing_depth));
   j.key("inverted").raw(peak_json(m.inverted)).key("nonfinite").raw(peak_json(m.nonfinite));
   j.key("max_speed").raw(peak_json(m.max_speed)).key("speed_ratio").raw(peak_json(m.speed_ratio));
+  j.key("fastest_vertex").val(std::int64_t{m.fastest_vertex});
   j.key("deepest").raw(m.checks > 0 ? to_json(m.deepest) : "null");
   return j.str();
 }
