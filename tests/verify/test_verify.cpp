@@ -413,10 +413,23 @@ TEST(Verify, MaximaKeepTheWorstCheck) {
   b.time = 0.5;
   b.surface.max_depth = 0.001;
   b.speed_ratio = 1.5;
+  a.max_speed = 1.0;
+  a.fastest = 42;
+  b.max_speed = 3.0;
+  b.fastest = 77;
+  VerifyFrame c = a;  // a later, slower check must not replace the fastest vertex
+  c.step = 30;
+  c.max_speed = 2.0;
+  c.fastest = 5;
   VerifyMaxima m;
   m.add(a);
   m.add(b);
-  EXPECT_EQ(m.checks, 2);
+  EXPECT_EQ(m.fastest_vertex, 77);
+  EXPECT_EQ(m.max_speed.step, 20);
+  m.add(c);
+  EXPECT_EQ(m.fastest_vertex, 77);
+  EXPECT_NE(to_json(m).find("\"fastest_vertex\": 77"), std::string::npos) << to_json(m);
+  EXPECT_EQ(m.checks, 3);
   EXPECT_NEAR(m.surface_depth.value, 0.02, 1e-15);
   EXPECT_EQ(m.surface_depth.step, 10);
   EXPECT_EQ(m.crossings.value, 7);
