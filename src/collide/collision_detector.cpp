@@ -459,6 +459,7 @@ void CollisionDetector::Impl::depth(const World& w, const double* x_prev, std::v
     st.deep_fallbacks += c.deep_fallbacks;
     st.entry_records += c.entry_records;
     st.redirected_depths += c.redirected;
+    st.nearest_records += c.nearest_records;
     st.degenerate_skipped += c.degenerate;
     st.surface_searches += c.surface_searches;
   }

@@ -65,7 +65,7 @@ struct DepthInput {
   const SurfaceBvh* bvh = nullptr;         ///< per slot, refitted to x~ for B
   const Box* object_box = nullptr;         ///< per slot, at x~
   double tiny = 0;                         ///< [m]
-  double check_depth = 0;                  ///< [m] consistent depths longer than this are checked against the nearest surface point
+  double check_depth = 0;                  ///< [m] consistent depths longer than this are checked against the way back and the nearest surface point
   int max_walk = 1000;                     ///< tets per walk before searching the hierarchy
 };
 
@@ -73,7 +73,8 @@ struct DepthCounters {
   std::int64_t border_points = 0;
   std::int64_t deep_fallbacks = 0;         ///< sets of points, not points
   std::int64_t entry_records = 0;          ///< records resolved towards where the point entered
-  std::int64_t redirected = 0;             ///< consistent depths replaced (more than twice the nearest surface distance)
+  std::int64_t redirected = 0;             ///< consistent depths replaced: by the way back (entry_records) or the nearest surface point
+  std::int64_t nearest_records = 0;        ///< of those, by the nearest surface point
   std::int64_t degenerate = 0;
   std::int64_t surface_searches = 0;       ///< walks that failed and were replaced by a search of the hierarchy
 };

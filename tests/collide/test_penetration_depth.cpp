@@ -178,3 +178,41 @@ TEST(PenetrationDepth, DeepIntersectionFallsBackToNearestTriangle) {
     for (int d = 0; d < 3; ++d) EXPECT_NEAR(q[d], r.w.x[3 * i + d] + k.depth[d], 1e-12);
   }
 }
+
+// A bar that has gone right through a slab (the configuration of two chained tori whose
+// tube has passed between a vertex and its mesh neighbours): its four top vertices are
+// 1 mm below the slab's top face, every other vertex is below the slab. Each top
+// vertex's border edges lead down to the bar's bottom vertices and leave the slab
+// through its bottom face, so the consistent depth points down, 0.199 m, to the far
+// side. There is no way back to compare it with (no x^t). It is more than four times
+// the distance to the slab's nearest surface point (the top face, 1 mm up), so the
+// record takes that point: d = (0, 0, 0.001), T_i in the top face, x~ + d on it.
+TEST(PenetrationDepth, DepthThroughTheBodyTakesTheNearestSurfacePoint) {
+  Outcome r = detect(world_from_objects(R"(
+  - name: slab
+    material: m
+    primitive: {type: box, size: [1, 1, 0.2], cells: [2, 2, 1]}
+    kinematic: true
+  - name: bar
+    material: m
+    primitive: {type: box, size: [0.1, 0.1, 1.0], cells: [1, 1, 1]}
+    transform: {translate: [0.13, 0.17, -0.401]}
+)"));
+  ASSERT_TRUE(all_finite(r.c));
+  ASSERT_EQ(r.c.size(), 4u);  // the bar's top vertices; no slab vertex is in the bar
+  EXPECT_EQ(r.st.nearest_records, 4);
+  EXPECT_EQ(r.st.redirected_depths, 4);
+  EXPECT_EQ(r.st.entry_records, 0);
+  for (const Collision& k : r.c) {
+    const auto i = static_cast<std::size_t>(k.point);
+    EXPECT_EQ(k.object, 1);
+    EXPECT_NEAR(r.w.x[3 * i + 2], 0.099, 1e-12);
+    EXPECT_TRUE(k.fallback);
+    EXPECT_NEAR(k.depth[0], 0, 1e-12);
+    EXPECT_NEAR(k.depth[1], 0, 1e-12);
+    EXPECT_NEAR(k.depth[2], 0.001, 1e-12);
+    for (int q = 0; q < 3; ++q) EXPECT_NEAR(r.w.x[3 * static_cast<std::size_t>(k.triangle[q]) + 2], 0.1, 1e-12);
+    const auto p = weighted_point(r.w, k);
+    for (int d = 0; d < 3; ++d) EXPECT_NEAR(p[d], r.w.x[3 * i + d] + k.depth[d], 1e-12);
+  }
+}
