@@ -51,8 +51,9 @@ struct CollisionStats {
   std::int64_t border_points = 0;       ///< records whose point has at least one border edge into B
   std::int64_t deep_fallbacks = 0;      ///< regions with no border point: entry rule or nearest-triangle fallback
   std::int64_t entry_records = 0;       ///< records resolved towards where the point entered B (penetration_depth.hpp, item 5)
-  std::int64_t redirected_depths = 0;   ///< consistent depths replaced by the way back or the nearest surface point (docs/collision.md, item 5)
+  std::int64_t redirected_depths = 0;   ///< consistent depths replaced by the way back, the rested-on triangle or the nearest surface point (docs/collision.md, item 5)
   std::int64_t nearest_records = 0;     ///< of those, replaced by the nearest surface point (no way back, or a long one)
+  std::int64_t resting_records = 0;     ///< of those, replaced by the closest point of the triangle x^t rested on
   std::int64_t self_collisions = 0;     ///< vertices inside a tet of their own object away from their star (records: self-contact)
   std::int64_t self_objects = 0;        ///< objects tested for self-contact (the others cannot fold this step: self_culling.hpp)
   std::int64_t edge_crossings = 0;      ///< surface edge / surface triangle crossings between bodies at x~

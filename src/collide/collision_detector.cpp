@@ -460,6 +460,7 @@ void CollisionDetector::Impl::depth(const World& w, const double* x_prev, std::v
     st.entry_records += c.entry_records;
     st.redirected_depths += c.redirected;
     st.nearest_records += c.nearest_records;
+    st.resting_records += c.resting_records;
     st.degenerate_skipped += c.degenerate;
     st.surface_searches += c.surface_searches;
   }

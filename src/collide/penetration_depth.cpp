@@ -120,6 +120,25 @@ bool entry_point(const DepthInput& in, std::int32_t b, index_t i, const V3& xi, 
   return true;
 }
 
+// The way back to rest (docs/collision.md, "Penetration vectors", item 5): the triangle
+// of B nearest to x^t_i is the one the point rested on at the start of the step (a
+// contact closed onto T_i's plane leaves x^t_i on or just inside B's surface); d_i leads
+// to that triangle's closest point to x~_i. False when it does not apply: no x^t, or
+// x^t_i farther from B's surface than x~_i from that triangle (it did not rest there).
+bool resting_point(const DepthInput& in, std::int32_t b, index_t i, const V3& xi, DepthCounters& c,
+                   const SkipVertices& skip, index_t& triangle, V3& d, std::array<double, 3>& weight) {
+  if (!in.x_prev) return false;
+  const V3 xp = load(in.x_prev, i);
+  const index_t* tri = in.world->triangles.data();
+  const SurfaceBvh::Nearest nr = in.bvh[b].nearest(in.x, tri, xp, c.degenerate, skip);
+  if (nr.triangle < 0) return false;
+  const index_t* tv = tri + 3 * static_cast<std::size_t>(nr.triangle);
+  const V3 p = closest_point_on_triangle(xi, load(in.x, tv[0]), load(in.x, tv[1]), load(in.x, tv[2]), weight);
+  triangle = nr.triangle;
+  d = p - xi;
+  return nr.dist2 <= norm2(d);  // x^t_i nearer to B's surface than x~_i: it rested there
+}
+
 }  // namespace
 
 void penetration_depth(const DepthInput& in, std::int32_t b, const InsidePoint* pts, std::size_t count, Collision* out,
@@ -295,8 +314,11 @@ void penetration_depth(const DepthInput& in, std::int32_t b, const InsidePoint* 
         // through B (a thin part, a tangled region), and the point would be pushed
         // through or, limited by the separation speed, deeper. The way back is taken.
         // Where there is no way back to compare with (x^t_i was inside B too) or it is
-        // long as well, d_i is compared with the distance to B's nearest surface point:
-        // more than kNearestFactor times that, and the nearest point is taken.
+        // long as well, d_i is compared with the way back to the triangle the point
+        // rested on at the start of the step (the one nearest to x^t_i): more than twice
+        // that, and that triangle's closest point is taken. Else d_i is compared with
+        // the distance to B's nearest surface point: more than kNearestFactor times
+        // that, and the nearest point is taken.
         index_t te = -1;
         V3 de{0, 0, 0};
         std::array<double, 3> we{};
@@ -307,6 +329,13 @@ void penetration_depth(const DepthInput& in, std::int32_t b, const InsidePoint* 
           projected = false;
           ++c.redirected;
           ++c.entry_records;
+        } else if (at > in.check_depth && resting_point(in, b, i, xi, c, skip, te, de, we) && 4 * norm2(de) < at * at) {
+          t = te;
+          d = de;
+          rec.weight = we;
+          projected = false;
+          ++c.redirected;
+          ++c.resting_records;
         } else if (at > in.check_depth) {
           const SurfaceBvh::Nearest nr = bvh.nearest(x, tri, xi, c.degenerate, skip);
           if (nr.triangle >= 0 && kNearestFactor * kNearestFactor * norm2(nr.point - xi) < at * at) {

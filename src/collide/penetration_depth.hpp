@@ -73,8 +73,9 @@ struct DepthCounters {
   std::int64_t border_points = 0;
   std::int64_t deep_fallbacks = 0;         ///< sets of points, not points
   std::int64_t entry_records = 0;          ///< records resolved towards where the point entered
-  std::int64_t redirected = 0;             ///< consistent depths replaced: by the way back (entry_records) or the nearest surface point
+  std::int64_t redirected = 0;             ///< consistent depths replaced: by the way back (entry_records), the rested-on triangle or the nearest surface point
   std::int64_t nearest_records = 0;        ///< of those, by the nearest surface point
+  std::int64_t resting_records = 0;        ///< of those, by the triangle x^t rested on
   std::int64_t degenerate = 0;
   std::int64_t surface_searches = 0;       ///< walks that failed and were replaced by a search of the hierarchy
 };

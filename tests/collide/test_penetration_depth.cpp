@@ -216,3 +216,47 @@ TEST(PenetrationDepth, DepthThroughTheBodyTakesTheNearestSurfacePoint) {
     for (int d = 0; d < 3; ++d) EXPECT_NEAR(p[d], r.w.x[3 * i + d] + k.depth[d], 1e-12);
   }
 }
+
+// The same bar, after a step in which it moved 49 mm down: at the start of the step
+// (x^t) its top vertices were 1 mm under the slab's top face, now (x~) they are 50 mm
+// under it, a quarter of the way through. x^t was inside the slab, so there is no way
+// back. The consistent depth leads down through the bottom face, 0.15 m: three times
+// the distance to the nearest surface point, under the nearest-point rule's 4, so that
+// rule keeps it, and the point would be pushed through the slab. The triangle x^t rested
+// on, the top face, gives 0.05, less than half of it: every record is d = (0, 0, 0.05)
+// to the top face, taken by the resting rule.
+TEST(PenetrationDepth, PointPressedInFromRestKeepsTheFaceItRestedOn) {
+  World w = world_from_objects(R"(
+  - name: slab
+    material: m
+    primitive: {type: box, size: [1, 1, 0.2], cells: [2, 2, 1]}
+    kinematic: true
+  - name: bar
+    material: m
+    primitive: {type: box, size: [0.1, 0.1, 1.0], cells: [1, 1, 1]}
+    transform: {translate: [0.13, 0.17, -0.45]}
+)");
+  w.x_prev = w.x;
+  for (std::size_t v = 0; v < w.vertex_object.size(); ++v)
+    if (w.vertex_object[v] == 1) w.x_prev[3 * v + 2] += 0.049;
+  std::vector<Collision> c;
+  CollisionStats st;
+  CollisionDetector(w, {}).detect(w, w.x_prev.data(), c, st);
+  ASSERT_TRUE(all_finite(c));
+  ASSERT_EQ(c.size(), 4u);
+  EXPECT_EQ(st.resting_records, 4);
+  EXPECT_EQ(st.nearest_records, 0);
+  EXPECT_EQ(st.entry_records, 0);
+  for (const Collision& k : c) {
+    const auto i = static_cast<std::size_t>(k.point);
+    EXPECT_EQ(k.object, 1);
+    EXPECT_NEAR(w.x[3 * i + 2], 0.05, 1e-12);
+    EXPECT_TRUE(k.fallback);
+    EXPECT_NEAR(k.depth[0], 0, 1e-12);
+    EXPECT_NEAR(k.depth[1], 0, 1e-12);
+    EXPECT_NEAR(k.depth[2], 0.05, 1e-12);
+    for (int q = 0; q < 3; ++q) EXPECT_NEAR(w.x[3 * static_cast<std::size_t>(k.triangle[q]) + 2], 0.1, 1e-12);
+    const auto p = weighted_point(w, k);
+    for (int d = 0; d < 3; ++d) EXPECT_NEAR(p[d], w.x[3 * i + d] + k.depth[d], 1e-12);
+  }
+}
