@@ -79,9 +79,9 @@ status=0
 
 report() {  # target, log: print the reproducer libFuzzer wrote, and how to replay it
   local t=$1 log=$2 repro
-  repro=$(grep -oE "Test unit written to [^ ]+" "$log" | tail -1 | sed 's/Test unit written to //') || true
+  repro=$(grep -aoE "Test unit written to [^ ]+" "$log" | tail -1 | sed 's/Test unit written to //') || true
   echo "fuzz.sh: FINDING in target '$t' (log: $log)"
-  grep -E "ERROR: |fuzz: |SUMMARY: |runtime error" "$log" | head -5 | sed 's/^/  /' || true
+  grep -aE "ERROR: |fuzz: |SUMMARY: |runtime error" "$log" | head -5 | sed 's/^/  /' || true
   if [ -n "$repro" ]; then
     echo "  reproducer: $repro"
     echo "  replay:     $build/fuzz/fuzz_$t $repro"

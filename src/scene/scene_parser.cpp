@@ -10,6 +10,7 @@
 #include <limits>
 #include <map>
 #include <sstream>
+#include <system_error>
 
 #include "softcontact/error.hpp"
 #include "softcontact/forces.hpp"
@@ -518,8 +519,14 @@ void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const 
       const std::string key = p.lexically_normal().string();
       auto it = mesh_cache.find(key);
       if (it == mesh_cache.end()) {
-        if (!std::filesystem::exists(p))
-          r.fail(n["mesh"], "mesh file '" + key + "' of " + where + " does not exist");
+        // The error_code overload: a name the file system refuses (too long, a component
+        // that is not a directory) is the scene's mistake, not an exception.
+        std::error_code ec;
+        const bool there = std::filesystem::exists(p, ec);
+        if (ec)
+          r.fail(n["mesh"], "cannot look up mesh file '" + key + "' of " + where + ": " + ec.message() +
+                                " (expected the path of a .msh or .node mesh file)");
+        if (!there) r.fail(n["mesh"], "mesh file '" + key + "' of " + where + " does not exist");
         MeshReport rep;
         TetMesh m = read_mesh(key, &rep);
         it = mesh_cache.emplace(key, std::make_pair(std::move(m), rep)).first;
@@ -756,8 +763,11 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path, c
 
 Scene load_scene(const std::string& path, const SceneLimits& limits) {
   std::ifstream in(path, std::ios::binary);
-  if (!std::filesystem::exists(path)) throw InputError(path, 0, "scene file does not exist");
-  if (std::filesystem::is_directory(path)) throw InputError(path, 0, "is a directory, expected a scene file (.yaml)");
+  std::error_code ec;
+  const bool there = std::filesystem::exists(path, ec);
+  if (ec) throw InputError(path, 0, "cannot look up the scene file: " + ec.message());
+  if (!there) throw InputError(path, 0, "scene file does not exist");
+  if (std::filesystem::is_directory(path, ec)) throw InputError(path, 0, "is a directory, expected a scene file (.yaml)");
   if (!in) throw InputError(path, 0, "cannot open the scene file for reading");
   std::ostringstream ss;
   ss << in.rdbuf();

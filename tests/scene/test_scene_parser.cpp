@@ -220,6 +220,20 @@ TEST(SceneParser, MissingMeshFileIsNamed) {
                {"scene.yaml:", "nowhere/ball.msh", "does not exist"});
 }
 
+// A name the file system refuses (a component over NAME_MAX, 255 bytes on Linux) is an
+// InputError at the line of 'mesh', not a std::filesystem_error (found by fuzzing).
+TEST(SceneParser, MeshNameTheFileSystemRefusesIsAnInputError) {
+  const std::string name(300, 'x');
+  expect_error(scene_with("  - material: rubber\n    mesh: " + name + ".msh\n"),
+               {"scene.yaml:", "cannot look up mesh file", "File name too long"});
+  try {
+    load_scene("/tmp/" + name + ".yaml");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot look up the scene file"), std::string::npos) << e.what();
+  }
+}
+
 TEST(SceneParser, MissingSceneFile) {
   try {
     load_scene("/nonexistent/scene.yaml");
