@@ -54,7 +54,33 @@ void CellBins::build(double cell, std::size_t count, const double* lo, const dou
     offset[i + 1] += offset[i];
   }
 
-  std::vector<std::pair<std::uint64_t, std::int32_t>> entries(static_cast<std::size_t>(offset[count]));
+  // Dense: a grid that is not much larger than its entries gets an offset per cell, filled
+  // by a counting sort (two passes over the items in order, so each list is sorted by
+  // item and nothing depends on the threads). Sparse (objects flown apart): sorted keys.
+  const auto entries_count = static_cast<std::size_t>(offset[count]);
+  const double cells = static_cast<double>(dims_[0]) * static_cast<double>(dims_[1]) * static_cast<double>(dims_[2]);
+  dense_ = cells <= std::max(4.0 * static_cast<double>(entries_count), 65536.0);
+  keys_.clear();
+  begin_.clear();
+  items_.resize(entries_count);
+  if (dense_) {
+    begin_.assign(static_cast<std::size_t>(cells) + 1, 0);
+    auto each_cell = [&](std::size_t u, auto&& f) {
+      const Cell a = first_[u], b = cell_of(hi + 3 * u);
+      for (std::int64_t x = a[0]; x <= b[0]; ++x)
+        for (std::int64_t y = a[1]; y <= b[1]; ++y)
+          for (std::int64_t z = a[2]; z <= b[2]; ++z) f(static_cast<std::size_t>(linear({x, y, z})));
+    };
+    for (std::size_t u = 0; u < count; ++u)
+      if (binned_[u]) each_cell(u, [&](std::size_t c) { ++begin_[c + 1]; });
+    for (std::size_t c = 1; c < begin_.size(); ++c) begin_[c] += begin_[c - 1];
+    std::vector<std::int64_t> fill(begin_.begin(), begin_.end() - 1);
+    for (std::size_t u = 0; u < count; ++u)
+      if (binned_[u])
+        each_cell(u, [&](std::size_t c) { items_[static_cast<std::size_t>(fill[c]++)] = static_cast<std::int32_t>(u); });
+    return;
+  }
+  std::vector<std::pair<std::uint64_t, std::int32_t>> entries(entries_count);
 #pragma omp parallel for schedule(static)
   for (std::int64_t i = 0; i < static_cast<std::int64_t>(count); ++i) {
     const auto u = static_cast<std::size_t>(i);
@@ -66,10 +92,6 @@ void CellBins::build(double cell, std::size_t count, const double* lo, const dou
         for (std::int64_t z = a[2]; z <= b[2]; ++z) entries[at++] = {key({x, y, z}), static_cast<std::int32_t>(i)};
   }
   std::sort(entries.begin(), entries.end());
-
-  keys_.clear();
-  begin_.clear();
-  items_.resize(entries.size());
   for (std::size_t e = 0; e < entries.size(); ++e) {
     if (e == 0 || entries[e].first != entries[e - 1].first) {
       keys_.push_back(entries[e].first);
@@ -93,7 +115,22 @@ CellBins::Cell CellBins::cell_of(const double* p, bool* exact) const {
   return c;
 }
 
+double CellBins::inner_distance(const double* p, const Cell& c) const {
+  double d = h_;
+  for (std::size_t a = 0; a < 3; ++a) {
+    const double lo = origin_[a] + static_cast<double>(c[a]) * h_;
+    d = std::min({d, p[a] - lo, lo + h_ - p[a]});
+  }
+  return d > 0 ? d : 0.0;  // also NaN
+}
+
 std::span<const std::int32_t> CellBins::at(const Cell& c) const {
+  if (dense_) {
+    for (std::size_t a = 0; a < 3; ++a)
+      if (c[a] < 0 || c[a] >= dims_[a]) return {};
+    const auto j = static_cast<std::size_t>(linear(c));
+    return {items_.data() + begin_[j], static_cast<std::size_t>(begin_[j + 1] - begin_[j])};
+  }
   const std::uint64_t k = key(c);
   const auto it = std::lower_bound(keys_.begin(), keys_.end(), k);
   if (it == keys_.end() || *it != k) return {};

@@ -1,8 +1,9 @@
 #pragma once
 // A uniform grid of cubic cells for softcontact verify (internal): each item (a tet, a
-// surface triangle) is listed in every cell its bounding box touches. Only occupied
-// cells are stored, as sorted keys with their item lists (CSR), so that a run whose
-// objects fly apart costs memory only where items are. Its own code, not the
+// surface triangle) is listed in every cell its bounding box touches (CSR). A grid of at
+// most 4 cells per entry keeps an offset per cell; a larger one (objects flown apart)
+// stores only the occupied cells, as sorted keys, so that it costs memory only where
+// items are. Its own code, not the
 // detector's spatial hash (verify.hpp).
 #include <array>
 #include <cstdint>
@@ -37,6 +38,10 @@ public:
   const Cell& first_cell(std::size_t i) const { return first_[i]; }
   bool binned(std::size_t i) const { return binned_[i] != 0; }
   double cell_size() const { return h_; }
+  /// Distance from p to the nearest face of cell c (0 when p is not inside c): an item
+  /// that is not listed in the (2r+1)^3 block of cells around c is farther from p than
+  /// r * cell_size() + this.
+  double inner_distance(const double* p, const Cell& c) const;
   std::int64_t dim(int axis) const { return dims_[static_cast<std::size_t>(axis)]; }
 
 private:
@@ -44,11 +49,13 @@ private:
     return (static_cast<std::uint64_t>(c[0]) << 42) | (static_cast<std::uint64_t>(c[1]) << 21) |
            static_cast<std::uint64_t>(c[2]);
   }
+  std::int64_t linear(const Cell& c) const { return (c[0] * dims_[1] + c[1]) * dims_[2] + c[2]; }
   double h_ = 1, inv_h_ = 1;
+  bool dense_ = false;                 // begin_ has an offset per cell, keys_ is empty
   double origin_[3] = {0, 0, 0};
   std::array<std::int64_t, 3> dims_{1, 1, 1};
-  std::vector<std::uint64_t> keys_;    // occupied cells, ascending
-  std::vector<std::int64_t> begin_;    // (keys+1) offsets into items_
+  std::vector<std::uint64_t> keys_;    // sparse: occupied cells, ascending
+  std::vector<std::int64_t> begin_;    // (cells+1) or (keys+1) offsets into items_
   std::vector<std::int32_t> items_;
   std::vector<std::int32_t> oversized_;
   std::vector<Cell> first_;

@@ -129,7 +129,8 @@ public:
 
   // Distance from p to body b's surface: rings of cells around p's cell, nearest first.
   // A triangle not met within ring r has its box outside the (2r+1)^3 block around p's
-  // cell, so it is farther than r h: stop once the best distance is <= r h. Deep points
+  // cell, so it is farther than r h plus p's distance to its cell's faces: stop once the
+  // best distance is that or less (a shallow point then stops in its own cell). Deep points
   // (beyond kMaxRing) and points off the grid go through all of b's triangles.
   // The triangles touching `star`'s stars are left out (self checks).
   double surface_distance(const double* p, std::int32_t b, const Star& star = {}) const {
@@ -140,6 +141,9 @@ public:
     for (std::int32_t t : tris_.oversized())
       if (counts(static_cast<std::size_t>(t))) best2 = std::min(best2, tri_dist2(p, static_cast<std::size_t>(t)));
     const double h = tris_.cell_size();
+    // The rounding of cell_of may put p a hair outside c0: a margin of the tolerance the
+    // boxes were grown by, far above that rounding.
+    const double inner = std::max(0.0, tris_.inner_distance(p, c0) - tol_);
     for (int r = 0; exact && r <= kMaxRing; ++r) {
       for (std::int64_t dx = -r; dx <= r; ++dx)
         for (std::int64_t dy = -r; dy <= r; ++dy)
@@ -151,7 +155,7 @@ public:
             for (std::int32_t t : tris_.at(c))
               if (counts(static_cast<std::size_t>(t))) best2 = std::min(best2, tri_dist2(p, static_cast<std::size_t>(t)));
           }
-      const double reach = r * h;
+      const double reach = r * h + inner;
       if (best2 <= reach * reach) return std::sqrt(best2);
     }
     const auto ob = static_cast<std::size_t>(b);
