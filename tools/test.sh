@@ -7,7 +7,7 @@
 #                                   over every reader), the shipped scenes checked by
 #                                   softcontact verify, the real scenes under MPI and the
 #                                   long validation runs: labels sanitize, scenes, long,
-#                                   extended (about 30 min). Installs the sanitizer
+#                                   extended (about 35 min). Installs the sanitizer
 #                                   toolchain first. CI runs both commands.
 #
 # Pictures (label 'render') need ParaView: bash tools/test.sh -L render.
