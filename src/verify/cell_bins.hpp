@@ -3,8 +3,7 @@
 // surface triangle) is listed in every cell its bounding box touches (CSR). A grid of at
 // most 4 cells per entry keeps an offset per cell; a larger one (objects flown apart)
 // stores only the occupied cells, as sorted keys, so that it costs memory only where
-// items are. Its own code, not the
-// detector's spatial hash (verify.hpp).
+// items are. Its own code, not the detector's spatial hash (verify.hpp).
 #include <array>
 #include <cstdint>
 #include <span>
