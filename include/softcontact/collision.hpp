@@ -59,6 +59,7 @@ struct CollisionStats {
   std::int64_t edge_crossings = 0;      ///< surface edge / surface triangle crossings between bodies at x~
   std::int64_t edge_contacts = 0;       ///< edge-edge records among `collisions`
   std::int64_t edge_unpaired = 0;       ///< crossing pairs left without a record
+  std::int64_t mutual_settled = 0;      ///< records of contradicting mutual pairs given a common axis (settle_mutual)
   std::int64_t degenerate_skipped = 0;  ///< degenerate triangles/tets/edges and non-finite positions met and handled
   /// Largest |x~ - x^t| / thinnest object thickness (tunnelling risk; 0 without x^t).
   /// Thickness: smallest extent of an object's vertices along its principal and
@@ -79,6 +80,17 @@ struct CollisionSettings {
   bool self_culling = true;
 };
 
+/// What a vertex record tells its partner in a mutual contact (docs/collision.md,
+/// "Penetration vectors", item 6): point j inside the body `other_object`, whose triangle
+/// weighs most on vertex `heavy_gid`. Trivially copyable (sent to neighbouring ranks).
+struct RecordKey {
+  gid_t point_gid = -1;
+  gid_t heavy_gid = -1;
+  std::int32_t other_object = -1;
+  std::int32_t pad = 0;
+  double depth[3] = {0, 0, 0};
+};
+
 /// Spatial hashing (Teschner et al. 2003) and consistent penetration depth (Heidelberger
 /// et al. 2004). Construction precomputes what does not change: edges, vertex adjacency,
 /// surface vertices, object thickness. detect() reuses its buffers between steps.
@@ -97,6 +109,22 @@ public:
   /// sorted by (point_gid, triangle_gid). `x_prev_step` (n_local,3) are the positions
   /// x^t at the start of the step, used for the tunnelling diagnostic only (may be null).
   void detect(const World& world, const double* x_prev_step, std::vector<Collision>& out, CollisionStats& stats);
+
+  /// Item 6 of "Penetration vectors" (docs/collision.md), after detect(): the keys of the
+  /// records that can be one half of a mutual pair (vertex records between two bodies
+  /// whose triangle weighs at least kMutualWeight on one vertex), appended to `keys`.
+  static void record_keys(const World& world, const std::vector<Collision>& records, std::vector<RecordKey>& keys);
+  /// A vertex record (i inside B, T_i weighing >= kMutualWeight on vertex j) whose partner
+  /// (j inside i's body, its triangle weighing >= kMutualWeight on i) has a depth pointing
+  /// the same way contradicts it; both take the axis m = normalize(n_B(j) - n_A(i))
+  /// (smoothed outward vertex normals at x~) and the length o = (x~_j - x~_i) . m clamped
+  /// to [max(|d_i|, |d_j|), |d_i| + |d_j|]: d_i = o m (and, on the partner's side, d_j =
+  /// -o m). `keys`: the
+  /// keys of every record that can be a partner (this rank's and, with several ranks, its
+  /// neighbours'), in any order (sorted here). Returns the number of records changed.
+  std::int64_t settle_mutual(const World& world, std::vector<Collision>& records, std::vector<RecordKey>& keys);
+  /// Smallest triangle weight on the partner vertex for item 6.
+  static constexpr double kMutualWeight = 0.5;
 
 private:
   struct Impl;

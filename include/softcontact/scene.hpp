@@ -86,6 +86,10 @@ struct Simulation {
   double output_interval = 0;       ///< simulated seconds between frames
   std::string output_dir;           ///< relative to the working directory
   bool self_collisions = false;
+  /// Mutual vertex records that contradict each other take a common axis (docs/collision.md,
+  /// "Penetration vectors", item 7); off by default: docs/validation.md, "Contradicting
+  /// mutual records" (chess500 then ends with inverted tets).
+  bool mutual_pairs = false;
   bool edge_contacts = false;       ///< edge-edge contacts between bodies (docs/collision.md, "Edge contacts"); off by default: a step of tori200 takes 2.4 times as long with them, chess500's 3.6 times
   // Overlaps that the step's own motion cannot explain (bodies that start overlapping,
   // a gap an earlier step left) are removed by a position-only shift of at most this

@@ -173,6 +173,8 @@ private:
   std::unique_ptr<ContactSolver> contact_;
   std::vector<double> f_;
   std::vector<Collision> collisions_, residual_;
+  std::vector<RecordKey> record_keys_;  // settle_mutual's partners (this rank's and its neighbours')
+  void settle_mutual_records();
   CollisionStats collision_stats_;
   ContactStats contact_stats_;
   PhaseTimes times_;

@@ -22,6 +22,7 @@
 
 #include "collision_topology.hpp"
 #include "edge_contacts.hpp"
+#include "mutual_records.hpp"
 #include "parallel.hpp"
 #include "penetration_depth.hpp"
 #include "point_in_tet.hpp"
@@ -532,6 +533,16 @@ CollisionDetector& CollisionDetector::operator=(CollisionDetector&&) noexcept = 
 void CollisionDetector::detect(const World& world, const double* x_prev_step, std::vector<Collision>& out,
                                CollisionStats& stats) {
   impl_->detect(world, x_prev_step, out, stats);
+}
+
+void CollisionDetector::record_keys(const World& world, const std::vector<Collision>& records,
+                                    std::vector<RecordKey>& keys) {
+  collide::mutual_record_keys(world, records, kMutualWeight, keys);
+}
+
+std::int64_t CollisionDetector::settle_mutual(const World& world, std::vector<Collision>& records,
+                                              std::vector<RecordKey>& keys) {
+  return collide::settle_mutual_pairs(world, impl_->topo, records, keys, kMutualWeight);
 }
 
 }  // namespace softcontact

@@ -2,18 +2,21 @@
 
 namespace softcontact::collide {
 
+V3 vertex_normal(const double* x, const index_t* tri, const CollisionTopology& topo, index_t v) {
+  V3 sum{0, 0, 0};
+  for (std::size_t k = topo.tri_begin[static_cast<std::size_t>(v)]; k < topo.tri_begin[static_cast<std::size_t>(v) + 1]; ++k) {
+    const index_t* t = tri + 3 * static_cast<std::size_t>(topo.tri_of[k]);
+    const V3 a = load(x, t[0]);
+    sum = sum + cross(load(x, t[1]) - a, load(x, t[2]) - a);
+  }
+  return normalized(sum);
+}
+
 void smoothed_vertex_normals(const double* x, const index_t* tri, const CollisionTopology& topo,
                              const ObjectInfo& object, double* normals, std::int64_t& degenerate) {
   std::int64_t bad = 0;
   for (index_t v : object.surface_vertices) {
-    V3 sum{0, 0, 0};
-    for (std::size_t k = topo.tri_begin[static_cast<std::size_t>(v)]; k < topo.tri_begin[static_cast<std::size_t>(v) + 1];
-         ++k) {
-      const index_t* t = tri + 3 * static_cast<std::size_t>(topo.tri_of[k]);
-      const V3 a = load(x, t[0]);
-      sum = sum + cross(load(x, t[1]) - a, load(x, t[2]) - a);
-    }
-    const V3 n = normalized(sum);
+    const V3 n = vertex_normal(x, tri, topo, v);
     if (n[0] == 0 && n[1] == 0 && n[2] == 0) ++bad;
     for (int d = 0; d < 3; ++d) normals[3 * static_cast<std::size_t>(v) + d] = n[d];
   }

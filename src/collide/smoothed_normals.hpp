@@ -20,6 +20,9 @@ namespace softcontact::collide {
 void smoothed_vertex_normals(const double* x, const index_t* tri, const CollisionTopology& topo,
                              const ObjectInfo& object, double* normals, std::int64_t& degenerate);
 
+/// The same n_v for one surface vertex v (zero where the sum vanishes).
+V3 vertex_normal(const double* x, const index_t* tri, const CollisionTopology& topo, index_t v);
+
 /// Vertex normals further than this from a triangle's own normal are replaced by the
 /// triangle's normal when interpolating over it (sharp edges; smoothed_normals.cpp).
 inline constexpr double kCreaseDegrees = 30.0;

@@ -326,6 +326,30 @@ void Simulator::compute_forces() {
   elastic_->add_forces(world_, f_, !implicit_);
 }
 
+// Item 6 of "Penetration vectors" (docs/collision.md): a record and its partner (the
+// record of its triangle's heavy vertex against its own body) may be on two ranks; each
+// rank sends the keys of its records whose heavy vertex is a ghost to its neighbours, so
+// that both halves of a cross-rank pair are decided from the same two records (the heavy
+// vertex is a vertex of the record's other body, a ghost when this rank does not own it).
+void Simulator::settle_mutual_records() {
+  record_keys_.clear();
+  CollisionDetector::record_keys(world_, collisions_, record_keys_);
+  if (halo_) {
+    const double t = MPI_Wtime();
+    std::vector<char> buf;
+    for (const RecordKey& k : record_keys_)  // the heavy vertex is B's: a ghost when B is
+      if (!world_.owns_object(k.other_object)) append_records(buf, &k, 1);
+    const std::vector<std::vector<char>> recv =
+        halo_->exchange_bytes(std::vector<std::vector<char>>(halo_->neighbors().size(), buf));
+    for (const std::vector<char>& r : recv) {
+      const std::vector<RecordKey> in = read_records<RecordKey>(r);
+      record_keys_.insert(record_keys_.end(), in.begin(), in.end());
+    }
+    times_.comm += MPI_Wtime() - t;
+  }
+  collision_stats_.mutual_settled = detector_->settle_mutual(world_, collisions_, record_keys_);
+}
+
 void Simulator::step() {
   const Simulation& sim = scene_.sim;
   const PhaseEvents& ev = phase_events();
@@ -361,6 +385,7 @@ void Simulator::step() {
   {
     PhaseLog log(ev, ev.collide);
     detector_->detect(world_, world_.x_prev.data(), collisions_, collision_stats_);
+    if (scene_.sim.mutual_pairs) settle_mutual_records();
   }
   times_.detect += collision_stats_.detection_seconds;
   times_.depth += collision_stats_.depth_seconds;

@@ -4,8 +4,10 @@
 # contact on 1, 2, 3 and 4 ranks with 1 and 2 OpenMP threads each, every frame (steps
 # 0/50/100/150/200 of the 200) bitwise equal to 1 rank and 1 thread (all datasets but
 # owner_rank, tests/app/check_output.py), and the diagnostics rows (energies, momentum,
-# contacts) equal as text. tori200's chains first touch at step 366, so its 200 steps
-# continue a checkpoint written at step 400 by a 1-rank run; chess500's first contact is at
+# contacts) equal as text. tori200 runs with 'mutual_pairs: true' (docs/collision.md,
+# "Penetration vectors", item 7: 1,618 records settled in steps 1000 to 1200; on 2 ranks
+# 24,538 record keys cross to the other rank for it in those steps). Its chains first touch at step
+# 366, so its 200 steps continue a checkpoint written at step 1000 by a 1-rank run; chess500's first contact is at
 # step 28, so it runs from the start. The colliding-point counts of diagnostics.csv are
 # asserted > 0 at every frame after the first contact, so the runs do exercise contact.
 # Then two small scenes with edge and self-contact records (see below).
@@ -17,18 +19,20 @@ rm -rf "$work" && mkdir -p "$work" && cd "$work" || exit 1
 source "$here/expect.sh"   # ok, bad, expect
 check="/usr/bin/python3 $here/check_output.py"
 
-# tori200 from step 400: a checkpoint of a 1-rank run (the restart itself is tested
+# tori200 from step 1000: a checkpoint of a 1-rank run (the restart itself is tested
 # elsewhere; here it only puts the start inside the contact phase).
-expect 0 'done: 400 steps' -- "$exe" run "$inputs/tori200.yaml" --steps 400 --checkpoint-every 400 \
-  --output-every 400 --output tori_start --quiet
-ckpt=tori_start/checkpoints/checkpoint_000000000400.h5
-[ -s "$ckpt" ] && ok || bad "no checkpoint at step 400 in tori_start"
+sed 's/^simulation:/simulation:\n  mutual_pairs: true/' "$inputs/tori200.yaml" > tori_mutual.yaml
+grep -q '^  mutual_pairs: true' tori_mutual.yaml && ok || bad "tori_mutual.yaml: mutual_pairs not set"
+expect 0 'done: 1000 steps' -- "$exe" run tori_mutual.yaml --steps 1000 --checkpoint-every 1000 \
+  --output-every 1000 --output tori_start --quiet
+ckpt=tori_start/checkpoints/checkpoint_000000001000.h5
+[ -s "$ckpt" ] && ok || bad "no checkpoint at step 1000 in tori_start"
 
 # run NAME RANKS THREADS: one run of scene NAME into NAME_rRANKS_tTHREADS.
 run() {
   local name=$1 np=$2 nt=$3 dir=$1_r$2_t$3
   local args=("$inputs/chess500.yaml" --steps 200)
-  [ "$name" = tori ] && args=(--restart "$ckpt" --steps 600)
+  [ "$name" = tori ] && args=(--restart "$ckpt" --steps 1200)
   expect 0 "on $np rank\(s\) x $nt thread\(s\)" -- "$mpiexec" --oversubscribe --bind-to none -n "$np" \
     env OMP_NUM_THREADS="$nt" "$exe" run "${args[@]}" --output-every 50 --output "$dir" --quiet
 }
@@ -43,9 +47,9 @@ contacts_after() {
 for name in tori chess; do
   run "$name" 1 1
   ref=${name}_r1_t1
-  # after the restart's step 400 (its first row, written before any step, counts none),
+  # after the restart's step 1000 (its first row, written before any step, counts none),
   # or chess500's first contact at step 28
-  after=400; [ "$name" = chess ] && after=28
+  after=1000; [ "$name" = chess ] && after=28
   contacts_after "$ref" "$after" && ok ||
     bad "$ref: a diagnostics row after step $after has no colliding point: $(cut -d, -f1,9 "$ref/diagnostics.csv" | tr '\n' ' ')"
   for np in 1 2 3 4; do

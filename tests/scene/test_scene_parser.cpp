@@ -412,3 +412,15 @@ TEST(SceneParser, ObjectsWithoutAStableTimeStepAreRejected) {
   expect_error(scene_with("  - name: flat\n    material: rubber\n    primitive: {type: box, size: [1e-320, 1, 1e300]}\n"),
                {"scene.yaml:", "object 'flat'", "no time step is stable"});
 }
+
+// The switches of the contact pipeline: off by default, on when asked, a bad value named
+// with its line.
+TEST(SceneParser, ContactSwitchesDefaultOffAndAreChecked) {
+  const Scene off = load_scene_from_string(scene_with(kBox), "scene.yaml");
+  EXPECT_FALSE(off.sim.mutual_pairs);
+  EXPECT_FALSE(off.sim.edge_contacts);
+  EXPECT_FALSE(off.sim.self_collisions);
+  const Scene on = load_scene_from_string(scene_with(kBox, "  dt: auto\n  steps: 10\n  mutual_pairs: true\n"), "scene.yaml");
+  EXPECT_TRUE(on.sim.mutual_pairs);
+  expect_error(scene_with(kBox, "  dt: auto\n  steps: 10\n  mutual_pairs: maybe\n"), {"scene.yaml:4:", "'mutual_pairs'"});
+}
