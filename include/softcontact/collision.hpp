@@ -81,7 +81,7 @@ struct CollisionSettings {
 };
 
 /// What a vertex record tells its partner in a mutual contact (docs/collision.md,
-/// "Penetration vectors", item 6): point j inside the body `other_object`, whose triangle
+/// "Penetration vectors", item 7): point j inside the body `other_object`, whose triangle
 /// weighs most on vertex `heavy_gid`. Trivially copyable (sent to neighbouring ranks).
 struct RecordKey {
   gid_t point_gid = -1;
@@ -110,7 +110,7 @@ public:
   /// x^t at the start of the step, used for the tunnelling diagnostic only (may be null).
   void detect(const World& world, const double* x_prev_step, std::vector<Collision>& out, CollisionStats& stats);
 
-  /// Item 6 of "Penetration vectors" (docs/collision.md), after detect(): the keys of the
+  /// Item 7 of "Penetration vectors" (docs/collision.md), after detect(): the keys of the
   /// records that can be one half of a mutual pair (vertex records between two bodies
   /// whose triangle weighs at least kMutualWeight on one vertex), appended to `keys`.
   static void record_keys(const World& world, const std::vector<Collision>& records, std::vector<RecordKey>& keys);
@@ -119,11 +119,11 @@ public:
   /// the same way contradicts it; both take the axis m = normalize(n_B(j) - n_A(i))
   /// (smoothed outward vertex normals at x~) and the length o = (x~_j - x~_i) . m clamped
   /// to [max(|d_i|, |d_j|), |d_i| + |d_j|]: d_i = o m (and, on the partner's side, d_j =
-  /// -o m). `keys`: the
-  /// keys of every record that can be a partner (this rank's and, with several ranks, its
-  /// neighbours'), in any order (sorted here). Returns the number of records changed.
+  /// -o m). `keys`: the keys of every record that can be a partner (this rank's and, with
+  /// several ranks, its neighbours'), in any order (sorted here). Returns the number of
+  /// records changed.
   std::int64_t settle_mutual(const World& world, std::vector<Collision>& records, std::vector<RecordKey>& keys);
-  /// Smallest triangle weight on the partner vertex for item 6.
+  /// Smallest triangle weight on the partner vertex for item 7.
   static constexpr double kMutualWeight = 0.5;
 
 private:

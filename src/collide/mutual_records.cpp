@@ -44,9 +44,9 @@ void mutual_record_keys(const World& w, const std::vector<Collision>& records, d
 
 std::int64_t settle_mutual_pairs(const World& w, const CollisionTopology& topo, std::vector<Collision>& records,
                                  std::vector<RecordKey>& keys, double min_weight) {
-  // A vertex has at most one record per other body, so (point, other body) is a key; the
-  // same key from two sources (a rank's own record and a copy a neighbour sent back) is
-  // the same record.
+  // A vertex has at most one record per other body, so (point, other body) is a key, and
+  // each rank sends only its own records' keys: no key should come twice; unique() keeps
+  // the lookup well defined if one did.
   std::sort(keys.begin(), keys.end(), key_less);
   keys.erase(std::unique(keys.begin(), keys.end(),
                          [](const RecordKey& a, const RecordKey& b) { return !key_less(a, b) && !key_less(b, a); }),

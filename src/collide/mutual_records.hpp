@@ -1,13 +1,13 @@
 #pragma once
-// Item 6 of "Penetration vectors" (docs/collision.md): mutual vertex records that
+// Item 7 of "Penetration vectors" (docs/collision.md): mutual vertex records that
 // contradict each other. Where a vertex i of body A is inside body B near B's vertex j
 // (T_i weighs at least kMutualWeight on j) and j is inside A near i, the two records
 // describe one contact seen from both sides, and their depths must point opposite ways
 // (each point leaves the other body towards its own side). The consistent depth,
 // propagated over each body's own points, can make them point the same way; the two
 // corrections then undo each other on the same two vertices. Such a pair takes one axis
-// from the two surfaces' outward normals at i and j and one length, the pair's overlap
-// along it, bounded by the two records' depths together.
+// from the two surfaces' outward normals at i and j and one length, the two vertices'
+// overlap along it clamped to [max(|d_i|, |d_j|), |d_i| + |d_j|].
 #include <cstdint>
 #include <vector>
 
