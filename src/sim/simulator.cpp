@@ -326,7 +326,7 @@ void Simulator::compute_forces() {
   elastic_->add_forces(world_, f_, !implicit_);
 }
 
-// Item 6 of "Penetration vectors" (docs/collision.md): a record and its partner (the
+// Item 7 of "Penetration vectors" (docs/collision.md): a record and its partner (the
 // record of its triangle's heavy vertex against its own body) may be on two ranks; each
 // rank sends the keys of its records whose heavy vertex is a ghost to its neighbours, so
 // that both halves of a cross-rank pair are decided from the same two records (the heavy
