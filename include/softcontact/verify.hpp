@@ -180,8 +180,15 @@ struct VerifyMaxima {
   VerifyPeak inverted, nonfinite, max_speed, speed_ratio;
   gid_t fastest_vertex = -1;                   ///< the vertex of max_speed (the first check's on a tie)
   VerifyFrame deepest;                         ///< the check with the deepest surface vertex
+  /// The deepest surface vertex of every check, in median edges (for the distribution:
+  /// one transient deep step moves the maximum, not the median or the counts).
+  std::vector<double> surface_depths;
 
   void add(const VerifyFrame& f);
+  /// Checks whose deepest surface vertex exceeds `limit` median edges.
+  std::int64_t checks_deeper_than(double limit) const;
+  /// The q-quantile (0..1, nearest rank) of the per-check deepest surface vertex.
+  double surface_depth_quantile(double q) const;
 };
 
 /// One check as a JSON object (one line; non-finite numbers as null).

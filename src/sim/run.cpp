@@ -429,7 +429,10 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     if (w.vertex >= 0)
       line << " (step " << verify_max.surface_depth.step << ": vertex " << w.vertex << " of " << name(w.object)
            << " in " << name(w.in_object) << ")";
-    line << ", at most " << verify_max.surface_count.value << " inside; interior vertices "
+    line << ", at most " << verify_max.surface_count.value << " inside; checks deeper than 0.005 / 0.01 / 0.02: "
+         << verify_max.checks_deeper_than(0.005) << " / " << verify_max.checks_deeper_than(0.01) << " / "
+         << verify_max.checks_deeper_than(0.02) << " (median " << verify_max.surface_depth_quantile(0.5)
+         << "); interior vertices "
          << verify_max.interior_depth.value << "; in their own body " << verify_max.self_depth.value
          << " (at most " << verify_max.self_count.value << "), edges through their own surface "
          << verify_max.self_crossing_depth.value << "; crossings at most " << verify_max.crossings.value << " ("

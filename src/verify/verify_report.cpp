@@ -1,4 +1,5 @@
 // Maxima over checks and their JSON form (verify.hpp).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -87,6 +88,7 @@ std::string peak_json(const VerifyPeak& p) {
 void VerifyMaxima::add(const VerifyFrame& f) {
   if (checks == 0 || f.surface.max_depth > deepest.surface.max_depth) deepest = f;
   ++checks;
+  surface_depths.push_back(f.surface_depth());
   peak(surface_count, static_cast<double>(f.surface.count), f);
   peak(surface_depth, f.surface_depth(), f);
   peak(interior_count, static_cast<double>(f.interior.count), f);
@@ -103,6 +105,19 @@ void VerifyMaxima::add(const VerifyFrame& f) {
   if (max_speed.step < 0 || f.max_speed > max_speed.value) fastest_vertex = f.fastest;
   peak(max_speed, f.max_speed, f);
   peak(speed_ratio, f.speed_ratio, f);
+}
+
+std::int64_t VerifyMaxima::checks_deeper_than(double limit) const {
+  return std::count_if(surface_depths.begin(), surface_depths.end(), [&](double d) { return d > limit; });
+}
+
+double VerifyMaxima::surface_depth_quantile(double q) const {
+  if (surface_depths.empty()) return 0;
+  std::vector<double> s = surface_depths;
+  const auto n = s.size();
+  const auto k = std::min(n - 1, static_cast<std::size_t>(std::ceil(q * static_cast<double>(n))) - (q > 0 ? 1 : 0));
+  std::nth_element(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(k), s.end());
+  return s[k];
 }
 
 std::string to_json(const VerifyFrame& f) {
@@ -132,6 +147,13 @@ std::string to_json(const VerifyMaxima& m) {
   j.key("inverted").raw(peak_json(m.inverted)).key("nonfinite").raw(peak_json(m.nonfinite));
   j.key("max_speed").raw(peak_json(m.max_speed)).key("speed_ratio").raw(peak_json(m.speed_ratio));
   j.key("fastest_vertex").val(std::int64_t{m.fastest_vertex});
+  {
+    Json d;
+    d.key("median").val(m.surface_depth_quantile(0.5)).key("p90").val(m.surface_depth_quantile(0.9));
+    d.key("over_0.005").val(m.checks_deeper_than(0.005)).key("over_0.01").val(m.checks_deeper_than(0.01));
+    d.key("over_0.02").val(m.checks_deeper_than(0.02));
+    j.key("surface_depth_per_check").raw(d.str());
+  }
   j.key("deepest").raw(m.checks > 0 ? to_json(m.deepest) : "null");
   return j.str();
 }

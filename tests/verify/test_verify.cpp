@@ -438,4 +438,25 @@ TEST(Verify, MaximaKeepTheWorstCheck) {
   EXPECT_NE(to_json(m).find("\"surface_depth_edges\": {\"value\": 0.02, \"step\": 10"), std::string::npos) << to_json(m);
 }
 
+// The distribution over checks of the deepest surface vertex: counts over a limit and
+// nearest-rank quantiles, against the depths given (in median edges).
+TEST(VerifyMaxima, DistributionOfTheDeepestVertexPerCheck) {
+  VerifyMaxima m;
+  const double depths[] = {0.001, 0.03, 0.004, 0.012, 0.006, 0.0};
+  for (double d : depths) {
+    VerifyFrame f;
+    f.median_edge = 0.01;
+    f.surface.max_depth = d * f.median_edge;
+    m.add(f);
+  }
+  EXPECT_EQ(m.checks_deeper_than(0.005), 3);
+  EXPECT_EQ(m.checks_deeper_than(0.01), 2);
+  EXPECT_EQ(m.checks_deeper_than(0.02), 1);
+  // sorted: 0, 0.001, 0.004, 0.006, 0.012, 0.03; nearest rank: ceil(q n)-th
+  EXPECT_NEAR(m.surface_depth_quantile(0.5), 0.004, 1e-15);
+  EXPECT_NEAR(m.surface_depth_quantile(0.9), 0.03, 1e-15);
+  EXPECT_NEAR(m.surface_depth_quantile(0.0), 0.0, 1e-15);
+  EXPECT_NE(to_json(m).find("\"over_0.005\": 3, \"over_0.01\": 2, \"over_0.02\": 1"), std::string::npos) << to_json(m);
+}
+
 }  // namespace softcontact
