@@ -8,29 +8,15 @@
 #include <cmath>
 #include <random>
 
+#include "loose_world.hpp"
 #include "softcontact/contact.hpp"
 
 using namespace softcontact;
 
 namespace {
 
-// A World of n loose vertices (no tets): what the contact response needs.
 World toy_world(const std::vector<double>& mass, const std::vector<bool>& fixed, int objects = 2) {
-  World w;
-  const std::size_t n = mass.size();
-  w.n_owned = n;
-  w.layout.resize(objects);
-  w.vertex_offset.assign(objects, 0);  // every object starts at gid 0 = local 0 here
-  for (std::size_t i = 0; i < n; ++i) {
-    w.vertex_gid.push_back(static_cast<softcontact::gid_t>(i));
-    w.vertex_object.push_back(0);
-    w.mass.push_back(mass[i]);
-    w.inv_mass.push_back(fixed[i] ? 0.0 : 1.0 / mass[i]);
-  }
-  w.x.assign(3 * n, 0.0);
-  w.x_prev.assign(3 * n, 0.0);
-  w.v.assign(3 * n, 0.0);
-  return w;
+  return test::loose_world(mass, fixed, objects);
 }
 
 Scene two_materials(double mu_s = 0, double mu_k = 0) {
@@ -73,18 +59,7 @@ void arrived(World& w, index_t i, const std::array<double, 3>& d) {
   for (int k = 0; k < 3; ++k) w.x_prev[3 * i + k] = w.x[3 * i + k] + d[k];
 }
 
-// The gap left after the step along n = d/|d|: (x_i - x_i~) - sum_j w_j (x_j - x_j~) must
-// equal d (the point of T_i under i and i itself meet).
-double closed_along(const World& before, const World& after, const Collision& c) {
-  const double D = std::sqrt(c.depth[0] * c.depth[0] + c.depth[1] * c.depth[1] + c.depth[2] * c.depth[2]);
-  double moved = 0;
-  for (int d = 0; d < 3; ++d) {
-    double u = after.x[3 * c.point + d] - before.x[3 * c.point + d];
-    for (int k = 0; k < 3; ++k) u -= c.weight[k] * (after.x[3 * c.triangle[k] + d] - before.x[3 * c.triangle[k] + d]);
-    moved += u * c.depth[d] / D;
-  }
-  return moved / D;  // 1: closed exactly
-}
+using test::closed_along;  // the gap closed, as a fraction of |d| (loose_world.hpp)
 
 }  // namespace
 
