@@ -1,7 +1,9 @@
 #pragma once
 // The analytic contact response of Spillmann, Becker and Teschner (2007), step 5 of
 // Algorithm 1 (method.md, "Contact forces" and "Friction"). No stiffness constant, no
-// iteration, no global system: O(1) work per collision.
+// iteration, no global system: O(1) work per collision. (With the scene key
+// simulation.contact_closure: coupled, off by default, the magnitudes lambda_q come from
+// one sparse direct solve over all collisions instead: src/contact/coupled_closure.hpp.)
 //
 // For every collision q = (i, T_i) with penetration vector d_i and weights omega_ij
 // (docs/contact.md, "Normal response", derives and tests this):
@@ -93,6 +95,9 @@ struct ContactStats {
   double force_sum[3] = {0, 0, 0};  ///< sum_v F_v over owned vertices (reduce over ranks for the balance)
   double force_abs_sum = 0;         ///< sum_v |F_v| over owned vertices
   double max_depth = 0;             ///< largest |d_i| [m]
+  std::int64_t closure_rows = 0;    ///< contact_closure coupled: collisions in the system (all ranks)
+  std::int64_t closure_dropped = 0; ///< ... of them given no force because they would have pulled
+  std::int64_t closure_local = 0;   ///< ... of them left to the per-collision closed form (ill-conditioned)
 };
 
 class ContactSolver {
@@ -156,6 +161,7 @@ private:
     // coefficients with a tangential vector in place of d_i.
     double ai;
     double aT[3];
+    double fa, faT[3];       // friction's coefficients (ai, aT of the per-collision closed form)
     double d[3];             // the depth removed in this step (d_i, or less for an old overlap)
     double approach;         // how far i moved into T_i along d within the step (>= 0)
     double dynamic;          // the part of the force closed with velocity (the step's approach), in [0, 1]
@@ -184,12 +190,16 @@ private:
   void reply(int dim, Value&& value, Halo* halo);
   void effective_depths(const std::vector<Collision>& c, double dt);
   std::int64_t normal_coefficients(const std::vector<Collision>& c, double dt);
+  void coupled_coefficients(const std::vector<Collision>& c, double dt, Halo* halo, ContactStats& stats);
   void dynamic_fractions(const std::vector<Collision>& c);
   void friction_coefficients(const std::vector<Collision>& c, ContactStats& stats);
   void materialize();
 
   std::vector<std::int32_t> object_material_;             // material of each object
   std::vector<std::vector<Friction>> friction_;           // [material][material]
+  bool coupled_ = false;                                   // simulation.contact_closure: coupled
+  /// Relative regularisation of the coupled closure's diagonal (coupled_closure.hpp).
+  static constexpr double kClosureEps = 1e-3;
   double separation_speed_ = 5.0;                          // [m/s] bound for resolving old overlaps
   std::int64_t capped_ = 0;                                // collisions limited by it, last respond()
   std::vector<std::int32_t> slot_of_;                      // n_local, -1 when not taking part

@@ -44,6 +44,8 @@ public:
   /// order. Collective over the neighbours (every neighbour must call it too).
   std::vector<std::vector<char>> exchange_bytes(const std::vector<std::vector<char>>& send);
 
+  MPI_Comm comm() const { return comm_; }
+
   /// Bytes this rank has received since construction (broadcasts and exchanges).
   std::int64_t bytes_received() const { return bytes_received_; }
 

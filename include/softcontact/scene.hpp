@@ -74,6 +74,8 @@ struct SceneObject {
   Motion motion;               ///< prescribed motion of the fixed vertices (none by default)
 };
 
+enum class ContactClosure { local, coupled };
+
 struct Simulation {
   bool dt_auto = true;
   double dt = 0;                    ///< [s]; when dt_auto, filled in from the stability limit
@@ -90,6 +92,10 @@ struct Simulation {
   /// "Penetration vectors", item 7); off by default: docs/validation.md, "Contradicting
   /// mutual records" (chess500 then ends with inverted tets).
   bool mutual_pairs = false;
+  /// How the normal magnitudes of the collisions are chosen (docs/contact.md): each
+  /// collision in closed form with shares of its vertices (local, the paper's structure),
+  /// or all together so that every gap closes (coupled).
+  ContactClosure contact_closure = ContactClosure::local;
   bool edge_contacts = false;       ///< edge-edge contacts between bodies (docs/collision.md, "Edge contacts"); off by default: a step of tori200 takes 2.4 times as long with them, chess500's 3.6 times
   // Overlaps that the step's own motion cannot explain (bodies that start overlapping,
   // a gap an earlier step left) are removed by a position-only shift of at most this

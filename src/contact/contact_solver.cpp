@@ -11,8 +11,12 @@
 // the sums the others need back (reply). The arithmetic is the same on any rank count.
 #include "softcontact/contact.hpp"
 
+#include <mpi.h>
+
 #include <algorithm>
 #include <cmath>
+
+#include "coupled_closure.hpp"
 
 #include "softcontact/error.hpp"
 #include "softcontact/halo.hpp"
@@ -48,6 +52,7 @@ ContactSolver::ContactSolver(const Scene& scene, const World& world)
   force_.assign(3 * world.n_local(), 0.0);
   penetration_.assign(3 * world.n_local(), 0.0);
   anchor_.assign(world.n_owned, StictionAnchor{});
+  coupled_ = scene.sim.contact_closure == ContactClosure::coupled;
 }
 
 std::int32_t ContactSolver::slot_of_vertex(const World& w, index_t v) {
@@ -291,6 +296,7 @@ std::int64_t ContactSolver::normal_coefficients(const std::vector<Collision>& co
     const Collision& c = col[static_cast<std::size_t>(q)];
     Local& L = local_[static_cast<std::size_t>(q)];
     L.ai = L.aT[0] = L.aT[1] = L.aT[2] = 0;
+    L.fa = L.faT[0] = L.faT[1] = L.faT[2] = 0;
     const double D = norm3(c.depth.data());
     if (D == 0) continue;
     const double n[3] = {c.depth[0] / D, c.depth[1] / D, c.depth[2] / D};
@@ -317,8 +323,107 @@ std::int64_t ContactSolver::normal_coefficients(const std::vector<Collision>& co
     const double lambda = inv_dt2 / K;
     L.ai = lambda;
     for (int k = 0; k < 3; ++k) L.aT[k] = -c.weight[static_cast<std::size_t>(k)] * lambda;
+    L.fa = L.ai;
+    for (int k = 0; k < 3; ++k) L.faT[k] = L.aT[k];
   }
   return fixed_pairs;
+}
+
+// simulation.contact_closure: coupled (coupled_closure.hpp): the magnitudes of all
+// collisions together, so that every gap closes by its applied depth when all
+// corrections act at once. The rows carry global ids and the collisions' keys; with
+// several ranks they are gathered to rank 0, merged in key order (the order of the one-
+// rank list), solved there and the magnitudes sent back: the same matrix and the same
+// arithmetic on any rank count. Friction keeps the per-collision coefficients (fa, faT)
+// for its stopping forces; Coulomb's cone takes the coupled normal force.
+void ContactSolver::coupled_coefficients(const std::vector<Collision>& col, double dt, Halo* halo, ContactStats& stats) {
+  const std::size_t nc = col.size();
+  std::vector<contact::ClosureRow> rows(nc);
+  for (std::size_t q = 0; q < nc; ++q) {
+    const Local& L = local_[q];
+    contact::ClosureRow& r = rows[q];
+    r.key_point = col[q].point_gid;
+    r.key_triangle = col[q].triangle_gid;
+    const double D = norm3(L.d);
+    if (D == 0 || L.ai == 0) continue;
+    r.depth = D;
+    for (int d = 0; d < 3; ++d) r.n[d] = L.d[d] / D;
+    auto add = [&](std::int32_t k, double b) {
+      const Slot& s = slots_[static_cast<std::size_t>(k)];
+      r.vertex[r.nv] = s.gid;
+      r.b[r.nv] = b;
+      r.inv_mass[r.nv] = s.inv_mass;
+      ++r.nv;
+    };
+    add(L.slot[0], L.pw);
+    for (int k = 0; k < 3; ++k) add(L.slot[1 + k], -col[q].weight[static_cast<std::size_t>(k)]);
+    if (L.slot2 >= 0) add(L.slot2, 1 - L.pw);
+  }
+  contact::ClosureStats cs;
+  std::vector<double> x;
+  int nranks = 1, rank = 0;
+  if (halo) {
+    MPI_Comm_size(halo->comm(), &nranks);
+    MPI_Comm_rank(halo->comm(), &rank);
+  }
+  if (nranks == 1) {
+    x = contact::solve_closure(rows, kClosureEps, cs);
+  } else {
+    const MPI_Comm comm = halo->comm();
+    const int bytes = static_cast<int>(nc * sizeof(contact::ClosureRow));
+    std::vector<int> counts(static_cast<std::size_t>(nranks), 0), displs(static_cast<std::size_t>(nranks), 0);
+    MPI_Gather(&bytes, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm);
+    std::vector<contact::ClosureRow> all;
+    if (rank == 0) {
+      std::int64_t total = 0;
+      for (int p = 0; p < nranks; ++p) {
+        displs[static_cast<std::size_t>(p)] = static_cast<int>(total);
+        total += counts[static_cast<std::size_t>(p)];
+      }
+      all.resize(static_cast<std::size_t>(total) / sizeof(contact::ClosureRow));
+    }
+    MPI_Gatherv(rows.data(), bytes, MPI_BYTE, all.data(), counts.data(), displs.data(), MPI_BYTE, 0, comm);
+    std::vector<double> xs;  // per row of `all`, in the order received
+    if (rank == 0) {
+      // Each rank's rows are in key order and the keys are unique across ranks: sorted
+      // by key, the rows are the one-rank list.
+      std::vector<std::int32_t> order(all.size());
+      for (std::size_t i = 0; i < all.size(); ++i) order[i] = static_cast<std::int32_t>(i);
+      std::sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
+        const auto& ra = all[static_cast<std::size_t>(a)];
+        const auto& rb = all[static_cast<std::size_t>(b)];
+        return key_less(ra.key_point, ra.key_triangle, rb.key_point, rb.key_triangle);
+      });
+      std::vector<contact::ClosureRow> sorted(all.size());
+      for (std::size_t i = 0; i < all.size(); ++i) sorted[i] = all[static_cast<std::size_t>(order[i])];
+      const std::vector<double> xo = contact::solve_closure(sorted, kClosureEps, cs);
+      xs.resize(all.size());
+      for (std::size_t i = 0; i < all.size(); ++i) xs[static_cast<std::size_t>(order[i])] = xo[i];
+      for (int p = 0; p < nranks; ++p) {
+        counts[static_cast<std::size_t>(p)] /= static_cast<int>(sizeof(contact::ClosureRow));
+        displs[static_cast<std::size_t>(p)] /= static_cast<int>(sizeof(contact::ClosureRow));
+      }
+    }
+    x.resize(nc);
+    MPI_Scatterv(xs.data(), counts.data(), displs.data(), MPI_DOUBLE, x.data(), static_cast<int>(nc), MPI_DOUBLE, 0,
+                 comm);
+    std::int64_t st[3] = {cs.rows, cs.dropped, cs.local};
+    MPI_Bcast(st, 3, MPI_INT64_T, 0, comm);
+    cs.rows = st[0];
+    cs.dropped = st[1];
+    cs.local = st[2];
+  }
+  stats.closure_rows = cs.rows;
+  stats.closure_dropped = cs.dropped;
+  stats.closure_local = cs.local;
+  const double inv_dt2 = 1.0 / (dt * dt);
+  for (std::size_t q = 0; q < nc; ++q) {
+    Local& L = local_[q];
+    if (rows[q].depth == 0 || std::isnan(x[q])) continue;  // NaN: the closed form stays
+    const double lambda = x[q] / rows[q].depth * inv_dt2;
+    L.ai = lambda;
+    for (int k = 0; k < 3; ++k) L.aT[k] = -col[q].weight[static_cast<std::size_t>(k)] * lambda;
+  }
 }
 
 void ContactSolver::friction_coefficients(const std::vector<Collision>& col, ContactStats& stats) {
@@ -356,7 +461,7 @@ void ContactSolver::friction_coefficients(const std::vector<Collision>& col, Con
     L.tangential = L.cone = 0;
     const double dd = norm3(L.d);
     const double dn = dd * L.dynamic;  // the normal force's depth: Coulomb's cone is set by the force, not the shift
-    if (dn == 0 || L.ai == 0) continue;
+    if (dn == 0 || L.fa == 0) continue;
     const Friction& mu = friction_[object_material_[c.object]][object_material_[c.other_object]];
     if (mu.mu_static == 0 && mu.mu_kinetic == 0) continue;
     const double n[3] = {L.d[0] / dd, L.d[1] / dd, L.d[2] / dd};
@@ -378,14 +483,17 @@ void ContactSolver::friction_coefficients(const std::vector<Collision>& col, Con
     const double un = u[0] * n[0] + u[1] * n[1] + u[2] * n[2];
     for (int d = 0; d < 3; ++d) L.e[d] = -(u[d] - un * n[d]);
     const double en = norm3(L.e);
-    L.tangential = L.ai * en;
+    L.tangential = L.fa * en;
     L.cone = L.ai * mu.mu_static * dn;
-    if (en <= mu.mu_static * dn) {
+    // The normal force relative to the one of the per-collision closed form (1 unless
+    // coupled_coefficients replaced it).
+    const double ratio = L.ai / L.fa;
+    if (en <= mu.mu_static * dn * ratio) {
       L.scale = en == 0 ? 0 : 1;
       L.keep_anchor = L.anchor_slot[0] >= 0;
       ++sticking;
     } else {
-      L.scale = mu.mu_kinetic * dn / en;
+      L.scale = mu.mu_kinetic * dn * ratio / en;
       ++sliding;
     }
   }
@@ -469,7 +577,10 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
   plan_ghosts(w, halo);  // collective over the neighbours, also without collisions
   // Without neighbours and collisions there is nothing to do; with neighbours every
   // exchange below must take place (they may need our vertices' sums).
-  if (request_.empty() && col.empty()) return;
+  if (request_.empty() && col.empty()) {
+    if (coupled_) coupled_coefficients(col, dt, halo, stats);  // collective: rank 0 gathers every rank's rows
+    return;
+  }
 
   // The summed pushes on each vertex (the shares; the paper's column sums s_j of H with
   // a direction), then the coefficients of the local force pairs.
@@ -489,6 +600,7 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
   effective_depths(col, dt);
   stats.separating = capped_;
   stats.fixed_pairs = normal_coefficients(col, dt);
+  if (coupled_) coupled_coefficients(col, dt, halo, stats);
 
   // Normal forces f_i = a_i d_i, f_Ti,j = a_j d_i per vertex; the normal correction
   // (friction sees the corrected motion), x = x~ + dt^2 F / m, of the owned slots; the
@@ -540,10 +652,10 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
       [&](std::size_t q, auto&& f) {
         const Local& L = local_[q];
         if (L.scale == 0) return;
-        const double fi[3] = {L.ai * L.scale * L.e[0], L.ai * L.scale * L.e[1], L.ai * L.scale * L.e[2]};
+        const double fi[3] = {L.fa * L.scale * L.e[0], L.fa * L.scale * L.e[1], L.fa * L.scale * L.e[2]};
         emit_point_side(L, fi, f);
         for (int k = 0; k < 3; ++k) {
-          const double fj[3] = {L.aT[k] * L.scale * L.e[0], L.aT[k] * L.scale * L.e[1], L.aT[k] * L.scale * L.e[2]};
+          const double fj[3] = {L.faT[k] * L.scale * L.e[0], L.faT[k] * L.scale * L.e[1], L.faT[k] * L.scale * L.e[2]};
           f(L.slot[1 + k], fj);
         }
       },

@@ -225,7 +225,7 @@ private:
 
 void parse_simulation(const Reader& r, const YAML::Node& n, Simulation& sim) {
   r.check_keys(n, {"dt", "dt_safety", "end_time", "steps", "gravity", "integrator", "output", "self_collisions",
-                   "edge_contacts", "mutual_pairs", "separation_speed", "checkpoint", "limits"},
+                   "edge_contacts", "mutual_pairs", "contact_closure", "separation_speed", "checkpoint", "limits"},
                "'simulation'");
   if (const auto dt = n["dt"]) {
     if (dt.IsScalar() && dt.Scalar() == "auto") {
@@ -254,6 +254,9 @@ void parse_simulation(const Reader& r, const YAML::Node& n, Simulation& sim) {
   if (const auto sc = n["self_collisions"]) sim.self_collisions = r.boolean(sc, "'self_collisions'");
   if (const auto ec = n["edge_contacts"]) sim.edge_contacts = r.boolean(ec, "'edge_contacts'");
   if (const auto mp = n["mutual_pairs"]) sim.mutual_pairs = r.boolean(mp, "'mutual_pairs'");
+  if (const auto cc = n["contact_closure"])
+    sim.contact_closure = r.choice<ContactClosure>(cc, "contact_closure",
+                                                   {{"local", ContactClosure::local}, {"coupled", ContactClosure::coupled}});
   if (const auto sp = n["separation_speed"])
     sim.separation_speed = r.positive(sp, "'separation_speed' (m/s, how fast overlapping bodies are pushed apart)");
   if (const auto o = n["output"]) {

@@ -6,7 +6,10 @@
 # owner_rank, tests/app/check_output.py), and the diagnostics rows (energies, momentum,
 # contacts) equal as text. tori200 runs with 'mutual_pairs: true' (docs/collision.md,
 # "Penetration vectors", item 7: 1,618 records settled in steps 1000 to 1200; on 2 ranks
-# 24,538 record keys cross to the other rank for it in those steps). Its chains first touch at step
+# 24,538 record keys cross to the other rank for it in those steps) and
+# 'contact_closure: coupled' (docs/contact.md, "Coupled closure": every rank's rows
+# gathered on rank 0, solved there, the magnitudes sent back); chess500 with the
+# shipped (local) closure. Its chains first touch at step
 # 366, so its 200 steps continue a checkpoint written at step 1000 by a 1-rank run; chess500's first contact is at
 # step 28, so it runs from the start. The colliding-point counts of diagnostics.csv are
 # asserted > 0 at every frame after the first contact, so the runs do exercise contact.
@@ -21,8 +24,9 @@ check="/usr/bin/python3 $here/check_output.py"
 
 # tori200 from step 1000: a checkpoint of a 1-rank run (the restart itself is tested
 # elsewhere; here it only puts the start inside the contact phase).
-sed 's/^simulation:/simulation:\n  mutual_pairs: true/' "$inputs/tori200.yaml" > tori_mutual.yaml
+sed 's/^simulation:/simulation:\n  mutual_pairs: true\n  contact_closure: coupled/' "$inputs/tori200.yaml" > tori_mutual.yaml
 grep -q '^  mutual_pairs: true' tori_mutual.yaml && ok || bad "tori_mutual.yaml: mutual_pairs not set"
+grep -q '^  contact_closure: coupled' tori_mutual.yaml && ok || bad "tori_mutual.yaml: contact_closure not set"
 expect 0 'done: 1000 steps' -- "$exe" run tori_mutual.yaml --steps 1000 --checkpoint-every 1000 \
   --output-every 1000 --output tori_start --quiet
 ckpt=tori_start/checkpoints/checkpoint_000000001000.h5

@@ -424,3 +424,11 @@ TEST(SceneParser, ContactSwitchesDefaultOffAndAreChecked) {
   EXPECT_TRUE(on.sim.mutual_pairs);
   expect_error(scene_with(kBox, "  dt: auto\n  steps: 10\n  mutual_pairs: maybe\n"), {"scene.yaml:4:", "'mutual_pairs'"});
 }
+
+TEST(SceneParser, ContactClosureIsLocalOrCoupled) {
+  EXPECT_EQ(load_scene_from_string(scene_with(kBox), "scene.yaml").sim.contact_closure, ContactClosure::local);
+  const Scene c = load_scene_from_string(scene_with(kBox, "  dt: auto\n  steps: 10\n  contact_closure: coupled\n"), "scene.yaml");
+  EXPECT_EQ(c.sim.contact_closure, ContactClosure::coupled);
+  expect_error(scene_with(kBox, "  dt: auto\n  steps: 10\n  contact_closure: global\n"),
+               {"scene.yaml:4:", "contact_closure", "local", "coupled"});
+}

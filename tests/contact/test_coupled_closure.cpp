@@ -1,0 +1,163 @@
+// simulation.contact_closure: coupled (src/contact/coupled_closure.hpp, docs/contact.md
+// "Coupled closure"): the cases the per-collision shares close only partly, with the gap
+// of every collision measured after the step from the positions; the pulling case; and
+// the solver against the 2 x 2 system solved by hand.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "../../src/contact/coupled_closure.hpp"
+#include "loose_world.hpp"
+#include "softcontact/contact.hpp"
+
+using namespace softcontact;
+
+namespace {
+
+Scene closure_scene(ContactClosure closure, int objects) {
+  Scene s;
+  s.materials.resize(1);
+  s.friction.assign(1, std::vector<Friction>(1, Friction{0, 0}));
+  s.objects.resize(static_cast<std::size_t>(objects));
+  s.sim.separation_speed = 1e3;  // the equations alone
+  s.sim.contact_closure = closure;
+  return s;
+}
+
+Collision record(index_t i, std::array<index_t, 3> t, std::array<double, 3> d, softcontact::gid_t key, int other) {
+  Collision c;
+  c.point = i;
+  c.triangle = t;
+  c.weight = {1.0 / 3, 1.0 / 3, 1.0 / 3};
+  c.depth = d;
+  c.point_gid = i;
+  c.triangle_gid = key;
+  c.object = 0;
+  c.other_object = other;
+  return c;
+}
+
+
+constexpr double dt = 1e-3;
+// The regularisation eps = 1e-3 leaves a gap of eps A_qq x_q: 0.1 % of an isolated
+// collision's depth, 0.4 % for the squeezed point below (x = 4 times the isolated closure).
+constexpr double kClosureTol = 5e-3;
+
+// Runs both closures on the same records; returns the fractions closed.
+std::vector<double> fractions(ContactClosure closure, const std::vector<double>& mass, const std::vector<bool>& fixed,
+                              int objects, const std::vector<Collision>& col, ContactStats* stats = nullptr) {
+  World w = test::loose_world(mass, fixed, objects);
+  for (const Collision& c : col)  // every contact arrived within the step: all dynamic
+    for (int d = 0; d < 3; ++d) w.x_prev[3 * c.point + d] = w.x[3 * c.point + d] + c.depth[d];
+  const World w0 = w;
+  ContactSolver solver(closure_scene(closure, objects), w);
+  ContactStats st;
+  solver.respond(w, col, dt, st);
+  if (stats) *stats = st;
+  std::vector<double> f;
+  for (const Collision& c : col) f.push_back(test::closed_along(w0, w, c));
+  return f;
+}
+
+}  // namespace
+
+// A face of three free vertices pressed by three free points with depths h, 2h and 3h
+// (all masses 1, weights 1/3): the shares split each face vertex by the summed pushes,
+// which under-closes the deepest and over-closes the shallowest. The coupled closure
+// closes each gap to its depth.
+TEST(CoupledClosure, UnequalDepthsOnASharedFaceCloseExactly) {
+  const double h = 1e-3;
+  std::vector<Collision> col;
+  for (int v = 0; v < 3; ++v) col.push_back(record(v, {3, 4, 5}, {0, 0, h * (v + 1)}, v, 1));
+  const std::vector<double> m(6, 1.0);
+  const std::vector<bool> fixed(6, false);
+  const auto local = fractions(ContactClosure::local, m, fixed, 2, col);
+  const auto coupled = fractions(ContactClosure::coupled, m, fixed, 2, col);
+  EXPECT_LT(local[2], 0.97);  // the deepest under-closed by the shares
+  EXPECT_GT(local[0], 1.03);  // the shallowest over-closed
+  for (double f : coupled) EXPECT_NEAR(f, 1.0, kClosureTol);
+}
+
+// A free point inside two free bodies at once, pushed up out of the lower one and down
+// out of the upper one: with shares both pushes act in full on the point and cancel, so
+// each gap closes only through its triangle (about half). Coupled: both close.
+TEST(CoupledClosure, PointSqueezedBetweenTwoBodiesClosesBothGaps) {
+  const double h = 1e-3;
+  const std::vector<Collision> col = {record(0, {1, 2, 3}, {0, 0, h}, 0, 1), record(0, {4, 5, 6}, {0, 0, -h}, 1, 2)};
+  const std::vector<double> m(7, 1.0);
+  const std::vector<bool> fixed(7, false);
+  const auto local = fractions(ContactClosure::local, m, fixed, 3, col);
+  const auto coupled = fractions(ContactClosure::coupled, m, fixed, 3, col);
+  EXPECT_LT(local[0], 0.8);
+  EXPECT_LT(local[1], 0.8);
+  EXPECT_NEAR(coupled[0], 1.0, kClosureTol);
+  EXPECT_NEAR(coupled[1], 1.0, kClosureTol);
+}
+
+// The same point squeezed between two fixed bodies: no pushing forces can close both
+// gaps (A is singular and the depths contradict it), and the solve runs away like
+// 1 / eps. Both collisions keep their per-collision closed form, which moves the point
+// by the difference of the two depths' pushes (the local closure's result).
+TEST(CoupledClosure, PointSqueezedBetweenFixedBodiesKeepsTheClosedForm) {
+  const std::vector<Collision> col = {record(0, {1, 2, 3}, {0, 0, 1e-3}, 0, 1), record(0, {4, 5, 6}, {0, 0, -4e-4}, 1, 2)};
+  const std::vector<double> m(7, 1.0);
+  std::vector<bool> fixed(7, true);
+  fixed[0] = false;
+  ContactStats st;
+  const auto coupled = fractions(ContactClosure::coupled, m, fixed, 3, col, &st);
+  const auto local = fractions(ContactClosure::local, m, fixed, 3, col);
+  EXPECT_EQ(st.closure_rows, 2);
+  EXPECT_EQ(st.closure_local, 2);
+  EXPECT_EQ(coupled, local);
+}
+
+// A free point against two fixed tiles side by side, 1 mm deep in one and 0.5 mm in the
+// other, both along z: no pair of pushing forces closes both gaps (the point can only
+// move once); solved together, the shallower one would pull. It is dropped, and the point
+// moves the deeper depth, which also clears the shallower tile.
+TEST(CoupledClosure, CollisionThatWouldPullGetsNoForce) {
+  const std::vector<Collision> col = {record(0, {1, 2, 3}, {0, 0, 1e-3}, 0, 1), record(0, {4, 5, 6}, {0, 0, 5e-4}, 1, 2)};
+  const std::vector<double> m(7, 1.0);
+  std::vector<bool> fixed(7, true);
+  fixed[0] = false;
+  ContactStats st;
+  const auto f = fractions(ContactClosure::coupled, m, fixed, 3, col, &st);
+  EXPECT_EQ(st.closure_rows, 2);
+  EXPECT_EQ(st.closure_dropped, 1);
+  EXPECT_NEAR(f[0], 1.0, kClosureTol);
+  EXPECT_GT(f[1], 1.0);  // cleared (moved 2 x its depth)
+}
+
+// The solver on two rows sharing one vertex of inverse mass 2 at 60 degrees, against the
+// 2 x 2 system solved by hand: A = [[a + 2, 1], [1, c + 2]] with the rows' own vertices
+// of inverse masses a and c (b = 1 everywhere), plus eps times the diagonal.
+TEST(CoupledClosure, SolverMatchesTheSystemSolvedByHand) {
+  const double a = 1.0, c = 3.0, eps = 1e-3, d0 = 2e-3, d1 = 1e-3;
+  contact::ClosureRow r0, r1;
+  r0.key_point = 0;
+  r1.key_point = 1;
+  r0.n[2] = 1;
+  r1.n[0] = std::sqrt(3.0) / 2;
+  r1.n[2] = 0.5;
+  r0.depth = d0;
+  r1.depth = d1;
+  r0.nv = r1.nv = 2;
+  r0.vertex[0] = 10;
+  r0.vertex[1] = 12;
+  r1.vertex[0] = 11;
+  r1.vertex[1] = 12;
+  r0.b[0] = r0.b[1] = r1.b[0] = r1.b[1] = 1;
+  r0.inv_mass[0] = a;
+  r1.inv_mass[0] = c;
+  r0.inv_mass[1] = r1.inv_mass[1] = 2;
+  contact::ClosureStats st;
+  const std::vector<double> x = contact::solve_closure({r0, r1}, eps, st);
+  const double A00 = (a + 2) * (1 + eps), A11 = (c + 2) * (1 + eps), A01 = 2 * 0.5;
+  const double det = A00 * A11 - A01 * A01;
+  ASSERT_EQ(x.size(), 2u);
+  EXPECT_NEAR(x[0], (A11 * d0 - A01 * d1) / det, 1e-15);
+  EXPECT_NEAR(x[1], (A00 * d1 - A01 * d0) / det, 1e-15);
+  EXPECT_EQ(st.rows, 2);
+  EXPECT_EQ(st.dropped, 0);
+  EXPECT_EQ(st.passes, 1);
+}
