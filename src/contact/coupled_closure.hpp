@@ -13,16 +13,22 @@
 // direction, b_qv its coefficient on v (the point side's weights pw and 1 - pw, -omega_j
 // for the triangle's vertices): A is the Delassus operator of the collisions along their
 // normals, symmetric positive semi-definite and block diagonal over the groups of
-// collisions that share movable vertices; each group is solved on its own with one LDL^T
-// factorisation of A + eps diag(A): a compliance of eps relative to each collision's own stiffness, which
-// leaves a gap of eps A_qq x_q (0.1 % of an isolated collision's depth with eps = 1e-3)
-// and keeps ill-conditioned groups from asking for huge opposite corrections. Solving
-// A itself to rounding (eps = 1e-8 and two steps of iterative refinement, tried) threw
-// chess500's vertices at 95 m/s (a numerical failure at t = 0.30 s): corrections that
-// nearly cancel on a squeezed point, each with its own dynamic fraction, do not cancel in
-// the velocities. A collision whose x comes out negative would pull
-// the bodies together; it is dropped (x = 0) and the rest of its group solved again, at
-// most kMaxPasses factorisations per group; anything still negative after that is clamped to 0.
+// collisions that share movable vertices. A group of one collision takes the closed form
+// itself, x = |d| / A_qq (the isolated closure, exact). A larger group is solved with one
+// LDL^T factorisation of A + eps diag(A): a compliance of eps relative to each
+// collision's own stiffness, which leaves a gap of eps A_qq x_q (0.1 % of the depth with
+// eps = 1e-3) and keeps ill-conditioned groups from asking for huge opposite
+// corrections. Solving A itself to rounding (eps = 1e-8 and two steps of iterative
+// refinement, tried) threw chess500's vertices at 95 m/s (a numerical failure at t =
+// 0.30 s): corrections that nearly cancel on a squeezed point, each with its own dynamic
+// fraction, do not cancel in the velocities. A collision whose x comes out negative would
+// pull the bodies together; it is dropped (x = 0) and the rest of its group solved again,
+// at most kMaxPasses solves per group; anything still negative after that is clamped to
+// 0. A solve without some rows replaces their rows and columns by the identity's and
+// factorises again numerically with the first ordering (a sparse group keeps its AMD
+// ordering and symbolic factorisation). The groups are solved in parallel (OpenMP, the
+// largest first); each writes only its own rows, so the result does not depend on the
+// thread count.
 //
 // A singular A with an inconsistent right-hand side (a point squeezed between two fixed
 // bodies, which no pushing forces can free) shows as rows whose gap the refined solution
@@ -63,7 +69,7 @@ struct ClosureStats {
   std::int64_t rows = 0;       ///< collisions with a gap and a movable vertex
   std::int64_t dropped = 0;    ///< collisions that would have pulled (x < 0), given no force
   std::int64_t local = 0;      ///< collisions returned as NaN (their gap cannot be closed: inconsistent rows)
-  std::int64_t passes = 0;     ///< factorisations (over all groups)
+  std::int64_t passes = 0;     ///< numeric factorisations (over all groups of more than one collision)
   bool failed = false;         ///< the factorisation failed: x is the isolated closure |d| / A_qq
 };
 

@@ -4,7 +4,9 @@
 // the solver against the 2 x 2 system solved by hand.
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
 #include <cmath>
+#include <omp.h>
 
 #include "../../src/contact/coupled_closure.hpp"
 #include "loose_world.hpp"
@@ -160,4 +162,110 @@ TEST(CoupledClosure, SolverMatchesTheSystemSolvedByHand) {
   EXPECT_EQ(st.rows, 2);
   EXPECT_EQ(st.dropped, 0);
   EXPECT_EQ(st.passes, 1);
+}
+
+namespace {
+
+// A chain of n collisions: row q pushes its own light vertex (b = 1, inverse mass 1)
+// against heavier vertices q and q + 1 shared with its neighbours (b = -1/2 each,
+// inverse mass 1/2); directions tilted from +z by a little per row. Diagonally dominant.
+std::vector<contact::ClosureRow> chain(int n) {
+  std::vector<contact::ClosureRow> rows(static_cast<std::size_t>(n));
+  for (int q = 0; q < n; ++q) {
+    contact::ClosureRow& r = rows[static_cast<std::size_t>(q)];
+    r.key_point = 1000 + q;
+    const double t = 0.3 * std::sin(0.7 * q);
+    r.n[0] = std::sin(t);
+    r.n[2] = std::cos(t);
+    r.depth = 1e-3 * (1.0 + 0.5 * std::cos(1.3 * q));
+    r.nv = 3;
+    r.vertex[0] = 1000 + q;
+    r.vertex[1] = q;
+    r.vertex[2] = q + 1;
+    r.b[0] = 1;
+    r.b[1] = r.b[2] = -0.5;
+    r.inv_mass[0] = 1;
+    r.inv_mass[1] = r.inv_mass[2] = 0.5;
+  }
+  return rows;
+}
+
+// (A + eps diag A) x = d over the rows not in `out`, built and solved here densely.
+std::vector<double> dense_reference(const std::vector<contact::ClosureRow>& rows, double eps,
+                                    const std::vector<int>& out) {
+  const auto n = static_cast<Eigen::Index>(rows.size());
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(n, n);
+  for (Eigen::Index p = 0; p < n; ++p)
+    for (Eigen::Index q = 0; q < n; ++q) {
+      const auto& rp = rows[static_cast<std::size_t>(p)];
+      const auto& rq = rows[static_cast<std::size_t>(q)];
+      const double nn = rp.n[0] * rq.n[0] + rp.n[1] * rq.n[1] + rp.n[2] * rq.n[2];
+      for (int e = 0; e < rp.nv; ++e)
+        for (int f = 0; f < rq.nv; ++f)
+          if (rp.vertex[e] == rq.vertex[f]) a(p, q) += rp.b[e] * rq.b[f] * nn * rp.inv_mass[e];
+    }
+  Eigen::VectorXd d(n);
+  for (Eigen::Index p = 0; p < n; ++p) d[p] = rows[static_cast<std::size_t>(p)].depth;
+  for (Eigen::Index p = 0; p < n; ++p) a(p, p) *= 1 + eps;
+  for (int o : out) {
+    a.row(o).setZero();
+    a.col(o).setZero();
+    a(o, o) = 1;
+    d[o] = 0;
+  }
+  const Eigen::VectorXd x = a.ldlt().solve(d);
+  return std::vector<double>(x.data(), x.data() + n);
+}
+
+}  // namespace
+
+// A group of one collision is the per-collision closed form itself: no regularisation.
+TEST(CoupledClosure, IsolatedCollisionClosesExactly) {
+  const std::vector<contact::ClosureRow> rows = chain(1);
+  contact::ClosureStats st;
+  const std::vector<double> x = contact::solve_closure(rows, 1e-3, st);
+  EXPECT_NEAR(x[0], rows[0].depth / 1.25, 1e-18);  // A = 1 + 2 * (1/2)^2 * (1/2)
+  EXPECT_EQ(st.passes, 0);
+}
+
+// A group larger than kDenseRows (the sparse path) against the dense system built
+// independently here, and the same to the bit on 1 and 2 threads.
+TEST(CoupledClosure, LargeGroupMatchesTheDenseSystemOnAnyThreadCount) {
+  const int n = 3 * contact::kDenseRows;
+  const std::vector<contact::ClosureRow> rows = chain(n);
+  const double eps = 1e-3;
+  const std::vector<double> ref = dense_reference(rows, eps, {});
+  const int before = omp_get_max_threads();
+  omp_set_num_threads(1);
+  contact::ClosureStats st1, st2;
+  const std::vector<double> x1 = contact::solve_closure(rows, eps, st1);
+  omp_set_num_threads(2);
+  const std::vector<double> x2 = contact::solve_closure(rows, eps, st2);
+  omp_set_num_threads(before);
+  ASSERT_EQ(x1.size(), static_cast<std::size_t>(n));
+  EXPECT_EQ(st1.dropped, 0);
+  for (int q = 0; q < n; ++q) {
+    EXPECT_NEAR(x1[static_cast<std::size_t>(q)], ref[static_cast<std::size_t>(q)], 1e-12 * ref[static_cast<std::size_t>(q)] + 1e-18) << q;
+    EXPECT_EQ(x1[static_cast<std::size_t>(q)], x2[static_cast<std::size_t>(q)]) << q;
+  }
+}
+
+// A row that would pull in the sparse path: the group is factorised again without it
+// (the same ordering), and the others equal the reduced system solved densely.
+TEST(CoupledClosure, PullingRowInALargeGroupLeavesTheReducedSystem) {
+  const int n = 3 * contact::kDenseRows;
+  std::vector<contact::ClosureRow> rows = chain(n);
+  const int k = n / 2;
+  rows[static_cast<std::size_t>(k)].depth = 1e-7;  // its neighbours' pushes close it and more
+  const double eps = 1e-3;
+  const std::vector<double> full = dense_reference(rows, eps, {});
+  ASSERT_LT(full[static_cast<std::size_t>(k)], 0);  // the case: it would pull
+  const std::vector<double> ref = dense_reference(rows, eps, {k});
+  contact::ClosureStats st;
+  const std::vector<double> x = contact::solve_closure(rows, eps, st);
+  EXPECT_EQ(st.dropped, 1);
+  EXPECT_EQ(st.passes, 2);
+  EXPECT_EQ(x[static_cast<std::size_t>(k)], 0);
+  for (int q = 0; q < n; ++q)
+    if (q != k) EXPECT_NEAR(x[static_cast<std::size_t>(q)], ref[static_cast<std::size_t>(q)], 1e-12 * std::abs(ref[static_cast<std::size_t>(q)])) << q;
 }
