@@ -122,6 +122,10 @@ public:
 
   /// Anchors per owned vertex (n_owned), for migration and checkpoints.
   std::vector<StictionAnchor>& anchors() { return anchor_; }
+  /// After respond(): for each local vertex (World index) that is the point of a vertex
+  /// collision, the RecordStatus (verify.hpp) of its deepest record; the others keep
+  /// kNoRecord. `status` is resized to the World's vertex count.
+  void record_status(const std::vector<Collision>& collisions, std::size_t n_local, std::vector<std::int8_t>& status) const;
   std::int64_t anchor_step() const { return step_; }
   void set_anchor_step(std::int64_t s) { step_ = s; }
 
@@ -165,6 +169,7 @@ private:
     double d[3];             // the depth removed in this step (d_i, or less for an old overlap)
     double approach;         // how far i moved into T_i along d within the step (>= 0)
     double dynamic;          // the part of the force closed with velocity (the step's approach), in [0, 1]
+    double closed;           // A_q: what the normal corrections of all collisions close of its gap along d
     double scale;            // friction: multiple of the tangential vector applied
     double e[3];             // friction: tangential vector
     double tangential;       // friction: |stopping force| of this collision

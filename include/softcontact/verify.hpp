@@ -103,11 +103,26 @@ double free_fall_speed(const Scene& scene);
 
 /// What to check besides the surface vertices; `free_fall_speed` <= 0 leaves the speed
 /// ratio at 0.
+/// What the run's contact response did in the step just checked about a surface vertex
+/// (in-run checks: Simulator::verify): the status of the vertex's deepest vertex
+/// collision record. Explains a vertex left inside (docs/validation.md).
+enum RecordStatus : std::int8_t {
+  kNoRecord = 0,      ///< no vertex record: the detector did not find it, or the response pushed it in
+  kCapped = 1,        ///< deeper than the step's approach allows: removed at the separation speed
+  kUnderClosed = 2,   ///< the normal corrections of all collisions closed less than 90 % of its applied depth
+  kClosed = 3,        ///< closed along its depth vector (so d was not the way out, or other corrections moved it)
+};
+constexpr int kRecordStatuses = 4;
+
 struct VerifyOptions {
   bool interior = true;          ///< also vertices that are not on a surface
   bool crossings = true;         ///< surface edge / surface triangle crossings
   double free_fall_speed = 0;    ///< v_ff [m/s] for VerifyFrame::speed_ratio
   bool self = true;              ///< surface vertices inside their own body (self-contact)
+  /// Per vertex (global order) a RecordStatus, or null: surface vertices deeper than
+  /// record_limit median edges are then counted by it (VerifyFrame::deep_by_record).
+  const std::int8_t* record = nullptr;
+  double record_limit = 0.005;
 };
 
 /// Vertices inside other bodies (surface or interior ones).
@@ -150,6 +165,9 @@ struct VerifyFrame {
   double max_speed = 0;          ///< [m/s] fastest vertex
   gid_t fastest = -1;            ///< its id (the lowest on a tie)
   double speed_ratio = 0;        ///< max_speed / v_ff
+  /// With VerifyOptions::record: surface vertices deeper than its record_limit inside
+  /// another body, by RecordStatus.
+  std::int64_t deep_by_record[kRecordStatuses] = {0, 0, 0, 0};
 
   double surface_depth() const { return surface.max_depth / median_edge; }    ///< in median edges
   double interior_depth() const { return interior.max_depth / median_edge; }  ///< in median edges
@@ -183,6 +201,8 @@ struct VerifyMaxima {
   /// The deepest surface vertex of every check, in median edges (for the distribution:
   /// one transient deep step moves the maximum, not the median or the counts).
   std::vector<double> surface_depths;
+  /// VerifyFrame::deep_by_record summed over the checks (vertex-checks).
+  std::int64_t deep_by_record[kRecordStatuses] = {0, 0, 0, 0};
 
   void add(const VerifyFrame& f);
   /// Checks whose deepest surface vertex exceeds `limit` median edges.

@@ -20,6 +20,7 @@
 
 #include "softcontact/error.hpp"
 #include "softcontact/halo.hpp"
+#include "softcontact/verify.hpp"
 
 namespace softcontact {
 
@@ -225,6 +226,7 @@ void ContactSolver::effective_depths(const std::vector<Collision>& col, double d
     for (int d = 0; d < 3; ++d) L.d[d] = c.depth[static_cast<std::size_t>(d)];
     L.approach = 0;
     L.dynamic = 1;
+    L.closed = 0;
     if (D == 0) continue;
     // Approach of i towards the point of T_i it touches within the step, along -n.
     double approach = 0;
@@ -274,6 +276,7 @@ void ContactSolver::dynamic_fractions(const std::vector<Collision>& col) {
       }
       closed += u * L.d[d] / D;
     }
+    L.closed = closed;
     L.dynamic = closed > L.approach ? L.approach / closed : (L.approach > 0 ? 1.0 : 0.0);
   }
 }
@@ -687,6 +690,28 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
   stats.force_abs_sum = abs_sum;
   stats.force_balance = abs_sum > 0 ? norm3(sum) / abs_sum : 0;
   if (!halo) update_anchors(w, col);
+}
+
+// The verify classes of contact.hpp (RecordStatus in verify.hpp): capped when the applied
+// depth is less than |d_i| (the separation speed), under-closed when the corrections of
+// all collisions close less than 90 % of the applied depth, else closed.
+void ContactSolver::record_status(const std::vector<Collision>& col, std::size_t n_local,
+                                  std::vector<std::int8_t>& status) const {
+  status.assign(n_local, kNoRecord);
+  std::vector<double> deepest(n_local, -1);
+  if (local_.size() < col.size()) return;  // respond() has not seen these collisions
+  for (std::size_t q = 0; q < col.size(); ++q) {
+    const Collision& c = col[q];
+    const auto i = static_cast<std::size_t>(c.point);
+    const double D = norm3(c.depth.data());
+    if (c.point2 >= 0 || i >= n_local || !(D > deepest[i])) continue;
+    deepest[i] = D;
+    const Local& L = local_[q];
+    const double applied = norm3(L.d);
+    if (applied < D * (1 - 1e-12)) status[i] = kCapped;
+    else if (L.closed < 0.9 * applied) status[i] = kUnderClosed;
+    else status[i] = kClosed;
+  }
 }
 
 // After the step: points that stuck to a valid anchor keep it; every other colliding

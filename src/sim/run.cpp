@@ -432,7 +432,10 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     line << ", at most " << verify_max.surface_count.value << " inside; checks deeper than 0.005 / 0.01 / 0.02: "
          << verify_max.checks_deeper_than(0.005) << " / " << verify_max.checks_deeper_than(0.01) << " / "
          << verify_max.checks_deeper_than(0.02) << " (median " << verify_max.surface_depth_quantile(0.5)
-         << "); interior vertices "
+         << "); vertex-checks deeper than 0.005: " << verify_max.deep_by_record[kNoRecord] << " with no record, "
+         << verify_max.deep_by_record[kCapped] << " capped by the separation speed, "
+         << verify_max.deep_by_record[kUnderClosed] << " closed < 90 %, " << verify_max.deep_by_record[kClosed]
+         << " closed along d; interior vertices "
          << verify_max.interior_depth.value << "; in their own body " << verify_max.self_depth.value
          << " (at most " << verify_max.self_count.value << "), edges through their own surface "
          << verify_max.self_crossing_depth.value << "; crossings at most " << verify_max.crossings.value << " ("

@@ -608,6 +608,18 @@ VerifyFrame Simulator::verify(bool full) {
     displs[static_cast<std::size_t>(r)] *= 6;
   }
   MPI_Gatherv(xv.data(), 6 * mine, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, 0, comm_);
+  // In-run checks: what the response did about each vertex in this step (its deepest
+  // vertex record), to count the vertices left inside by cause.
+  std::vector<std::int8_t> status, all_status(full && rank_ == 0 ? static_cast<std::size_t>(total) : 0);
+  if (full) {
+    contact_->record_status(collisions_, world_.n_owned, status);
+    for (int r = 0; r < nranks_; ++r) {
+      counts[static_cast<std::size_t>(r)] /= 6;
+      displs[static_cast<std::size_t>(r)] /= 6;
+    }
+    MPI_Gatherv(status.data(), mine, MPI_INT8_T, all_status.data(), counts.data(), displs.data(), MPI_INT8_T, 0,
+                comm_);
+  }
   VerifyFrame f;
   if (rank_ == 0) {
     if (!verify_mesh_) {
@@ -621,12 +633,15 @@ VerifyFrame Simulator::verify(bool full) {
         x[3 * static_cast<std::size_t>(gids[k]) + d] = all[6 * k + d];
         v[3 * static_cast<std::size_t>(gids[k]) + d] = all[6 * k + 3 + d];
       }
+    std::vector<std::int8_t> record(full ? n : 0, kNoRecord);
+    for (std::size_t k = 0; full && k < gids.size(); ++k) record[static_cast<std::size_t>(gids[k])] = all_status[k];
     VerifyOptions opt;
     opt.interior = opt.crossings = full;
     // Self checks cost a pass over every surface edge against its own body: in the run only
     // where the run claims self-contact (softcontact verify on the frames always has them).
     opt.self = full && scene_.sim.self_collisions;
     opt.free_fall_speed = free_fall_speed_;
+    if (full) opt.record = record.data();
     f = verify_frame(*verify_mesh_, x.data(), v.data(), opt);
   }
   MPI_Bcast(&f, static_cast<int>(sizeof f), MPI_BYTE, 0, comm_);  // trivially copyable (verify.hpp)

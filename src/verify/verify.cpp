@@ -483,6 +483,14 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
     }
   });
   f.surface = inside_stats(m, depth, in_obj, [&](std::size_t i) { return m.surface_vertex[i] != 0; });
+  if (opt.record) {
+    const double limit = opt.record_limit * m.median_edge;
+    for (std::size_t i = 0; i < n; ++i)
+      if (m.surface_vertex[i] && depth[i] > limit) {
+        const int st = opt.record[i];
+        ++f.deep_by_record[st >= 0 && st < kRecordStatuses ? st : kNoRecord];
+      }
+  }
   if (opt.self) {
     std::vector<double> self(n, -1);
     std::vector<std::int32_t> self_obj(m.vertex_object);

@@ -89,6 +89,7 @@ void VerifyMaxima::add(const VerifyFrame& f) {
   if (checks == 0 || f.surface.max_depth > deepest.surface.max_depth) deepest = f;
   ++checks;
   surface_depths.push_back(f.surface_depth());
+  for (int k = 0; k < kRecordStatuses; ++k) deep_by_record[k] += f.deep_by_record[k];
   peak(surface_count, static_cast<double>(f.surface.count), f);
   peak(surface_depth, f.surface_depth(), f);
   peak(interior_count, static_cast<double>(f.interior.count), f);
@@ -153,6 +154,12 @@ std::string to_json(const VerifyMaxima& m) {
     d.key("over_0.005").val(m.checks_deeper_than(0.005)).key("over_0.01").val(m.checks_deeper_than(0.01));
     d.key("over_0.02").val(m.checks_deeper_than(0.02));
     j.key("surface_depth_per_check").raw(d.str());
+  }
+  {
+    Json r;
+    r.key("no_record").val(m.deep_by_record[kNoRecord]).key("capped").val(m.deep_by_record[kCapped]);
+    r.key("under_closed").val(m.deep_by_record[kUnderClosed]).key("closed").val(m.deep_by_record[kClosed]);
+    j.key("deep_vertices_by_record").raw(r.str());
   }
   j.key("deepest").raw(m.checks > 0 ? to_json(m.deepest) : "null");
   return j.str();

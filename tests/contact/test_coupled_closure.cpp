@@ -11,6 +11,7 @@
 #include "../../src/contact/coupled_closure.hpp"
 #include "loose_world.hpp"
 #include "softcontact/contact.hpp"
+#include "softcontact/verify.hpp"
 
 using namespace softcontact;
 
@@ -268,4 +269,42 @@ TEST(CoupledClosure, PullingRowInALargeGroupLeavesTheReducedSystem) {
   EXPECT_EQ(x[static_cast<std::size_t>(k)], 0);
   for (int q = 0; q < n; ++q)
     if (q != k) EXPECT_NEAR(x[static_cast<std::size_t>(q)], ref[static_cast<std::size_t>(q)], 1e-12 * std::abs(ref[static_cast<std::size_t>(q)])) << q;
+}
+
+// The causes the in-run check reports for a vertex left inside (ContactSolver::record_status,
+// verify.hpp RecordStatus), each against the gap measured from the positions: an
+// isolated fresh contact is closed; the squeezed point's two records under the shares
+// close less than 90 % (its deeper record decides); an old overlap deeper than the
+// separation speed allows is capped. A vertex that is no point keeps kNoRecord.
+TEST(CoupledClosure, RecordStatusNamesWhyAGapWasLeft) {
+  const double h = 1e-3;
+  const std::vector<double> m(7, 1.0);
+  const std::vector<bool> fixed(7, false);
+  auto status_of = [&](const std::vector<Collision>& col, double separation_speed, bool fresh) {
+    World w = test::loose_world(m, fixed, 3);
+    if (fresh)
+      for (const Collision& c : col)
+        for (int d = 0; d < 3; ++d) w.x_prev[3 * c.point + d] = w.x[3 * c.point + d] + c.depth[d];
+    Scene s = closure_scene(ContactClosure::local, 3);
+    s.sim.separation_speed = separation_speed;
+    ContactSolver solver(s, w);
+    ContactStats st;
+    const World w0 = w;
+    solver.respond(w, col, dt, st);
+    std::vector<std::int8_t> status;
+    solver.record_status(col, w.n_owned, status);
+    return std::make_pair(status, test::closed_along(w0, w, col[0]));
+  };
+  const auto [isolated, closed_isolated] = status_of({record(0, {1, 2, 3}, {0, 0, h}, 0, 1)}, 1e3, true);
+  EXPECT_NEAR(closed_isolated, 1.0, 1e-12);
+  EXPECT_EQ(isolated[0], kClosed);
+  for (std::size_t v = 1; v < isolated.size(); ++v) EXPECT_EQ(isolated[v], kNoRecord);
+  const auto [squeezed, closed_squeezed] =
+      status_of({record(0, {1, 2, 3}, {0, 0, 2 * h}, 0, 1), record(0, {4, 5, 6}, {0, 0, -h}, 1, 2)}, 1e3, true);
+  EXPECT_LT(closed_squeezed, 0.9);
+  EXPECT_EQ(squeezed[0], kUnderClosed);
+  // No approach within the step (x^t = x~) and 1 mm/s: 1 um of the 1 mm is removed.
+  const auto [old, closed_old] = status_of({record(0, {1, 2, 3}, {0, 0, h}, 0, 1)}, 1e-3, false);
+  EXPECT_NEAR(closed_old, 1e-3, 1e-9);
+  EXPECT_EQ(old[0], kCapped);
 }

@@ -459,4 +459,35 @@ TEST(VerifyMaxima, DistributionOfTheDeepestVertexPerCheck) {
   EXPECT_NE(to_json(m).find("\"over_0.005\": 3, \"over_0.01\": 2, \"over_0.02\": 1"), std::string::npos) << to_json(m);
 }
 
+// The in-run check's count of surface vertices left inside by what the response did
+// about them (VerifyOptions::record): only the vertices deeper than record_limit median
+// edges, by their status; none without the per-vertex status.
+TEST(Verify, VerticesLeftInsideAreCountedByTheirRecordStatus) {
+  const TetBodies b = point_in_unit_tet({0.1, 0.2, 0.15});  // vertex 4, 0.1 deep
+  std::vector<std::int8_t> status(8, kNoRecord);
+  status[4] = kUnderClosed;
+  status[5] = kClosed;  // not inside: not counted
+  VerifyOptions opt = all_checks();
+  opt.record = status.data();
+  opt.record_limit = 0.099 / b.mesh.median_edge;
+  VerifyFrame f = verify_frame(b.mesh, b.x.data(), nullptr, opt);
+  EXPECT_EQ(f.deep_by_record[kUnderClosed], 1);
+  EXPECT_EQ(f.deep_by_record[kNoRecord] + f.deep_by_record[kCapped] + f.deep_by_record[kClosed], 0);
+  opt.record_limit = 0.101 / b.mesh.median_edge;  // shallower than the limit
+  f = verify_frame(b.mesh, b.x.data(), nullptr, opt);
+  EXPECT_EQ(f.deep_by_record[kUnderClosed], 0);
+  status[4] = kNoRecord;
+  opt.record_limit = 0;
+  f = verify_frame(b.mesh, b.x.data(), nullptr, opt);
+  EXPECT_EQ(f.deep_by_record[kNoRecord], 1);
+  VerifyMaxima m;
+  m.add(f);
+  m.add(f);
+  EXPECT_EQ(m.deep_by_record[kNoRecord], 2);
+  EXPECT_NE(to_json(m).find("\"deep_vertices_by_record\": {\"no_record\": 2, \"capped\": 0"), std::string::npos);
+  opt.record = nullptr;
+  f = verify_frame(b.mesh, b.x.data(), nullptr, opt);
+  EXPECT_EQ(f.deep_by_record[kNoRecord], 0);
+}
+
 }  // namespace softcontact
