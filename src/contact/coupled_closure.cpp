@@ -43,7 +43,9 @@ class GroupSystem {
     sparse_.factorize(m_);
     return sparse_.info() == Eigen::Success;
   }
-  // Factorises again with the rows `held` (state != 0) taken out.
+  // Factorises again with the rows `held` (state != 0) taken out. The held set only grows
+  // within a group (solve_closure never releases a row), so entries zeroed in m_ by an
+  // earlier call stay right.
   bool refactorize(const std::vector<char>& held) {
     if (dense_) {
       Eigen::MatrixXd m = a0_;
