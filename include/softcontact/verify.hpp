@@ -101,8 +101,6 @@ double free_fall_speed(const double* x0, std::size_t n, const Vec3& gravity, dou
 /// velocities and prescribed motions.
 double free_fall_speed(const Scene& scene);
 
-/// What to check besides the surface vertices; `free_fall_speed` <= 0 leaves the speed
-/// ratio at 0.
 /// What the run's contact response did in the step just checked about a surface vertex
 /// (in-run checks: Simulator::verify): the status of the vertex's deepest vertex
 /// collision record. Explains a vertex left inside (docs/validation.md).
@@ -114,6 +112,8 @@ enum RecordStatus : std::int8_t {
 };
 constexpr int kRecordStatuses = 4;
 
+/// What to check besides the surface vertices; `free_fall_speed` <= 0 leaves the speed
+/// ratio at 0.
 struct VerifyOptions {
   bool interior = true;          ///< also vertices that are not on a surface
   bool crossings = true;         ///< surface edge / surface triangle crossings

@@ -692,7 +692,7 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
   if (!halo) update_anchors(w, col);
 }
 
-// The verify classes of contact.hpp (RecordStatus in verify.hpp): capped when the applied
+// The in-run check's classes (RecordStatus, verify.hpp): capped when the applied
 // depth is less than |d_i| (the separation speed), under-closed when the corrections of
 // all collisions close less than 90 % of the applied depth, else closed.
 void ContactSolver::record_status(const std::vector<Collision>& col, std::size_t n_local,
