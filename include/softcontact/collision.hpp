@@ -59,6 +59,8 @@ struct CollisionStats {
   std::int64_t edge_crossings = 0;      ///< surface edge / surface triangle crossings between bodies at x~
   std::int64_t edge_contacts = 0;       ///< edge-edge records among `collisions`
   std::int64_t edge_unpaired = 0;       ///< crossing pairs left without a record
+  std::int64_t edge_pairs = 0;          ///< candidate (edge, triangle) pairs of the edge search held
+  std::int64_t edge_pair_searches = 0;  ///< 1 when those pairs were found again in this call (the skin was used up)
   std::int64_t mutual_settled = 0;      ///< records of contradicting mutual pairs given a common axis (settle_mutual)
   std::int64_t degenerate_skipped = 0;  ///< degenerate triangles/tets/edges and non-finite positions met and handled
   /// Largest |x~ - x^t| / thinnest object thickness (tunnelling risk; 0 without x^t).
@@ -78,6 +80,10 @@ struct CollisionSettings {
   /// With self_collisions: skip the self query of objects that cannot have folded (an
   /// exact test, self_culling.hpp). Off only to check that it changes nothing.
   bool self_culling = true;
+  /// With edge_contacts: the Verlet skin of the edge search's candidate pairs, in grid
+  /// cells (docs/collision.md, "Edge contacts", item 2). The crossings found do not
+  /// depend on it; 0 (found again every step) only to check that.
+  double edge_skin = 0.25;
 };
 
 /// What a vertex record tells its partner in a mutual contact (docs/collision.md,

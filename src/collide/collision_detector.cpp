@@ -20,6 +20,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "box_pairs.hpp"
 #include "collision_topology.hpp"
 #include "edge_contacts.hpp"
 #include "mutual_records.hpp"
@@ -233,24 +234,8 @@ void CollisionDetector::Impl::find_partners(const double* x) {
     object_box[k] = b;
     partners[k].clear();
   });
-  sweep.clear();
-  for (std::size_t k = 0; k < no; ++k)
-    if (!object_box[k].empty() && !topo.objects[k].triangles.empty()) sweep.push_back(static_cast<std::int32_t>(k));
-  std::sort(sweep.begin(), sweep.end(), [&](std::int32_t a, std::int32_t b) {
-    const double la = object_box[static_cast<std::size_t>(a)].lo[0], lb = object_box[static_cast<std::size_t>(b)].lo[0];
-    return la != lb ? la < lb : a < b;
-  });
-  for (std::size_t i = 0; i < sweep.size(); ++i) {
-    const auto a = static_cast<std::size_t>(sweep[i]);
-    for (std::size_t j = i + 1; j < sweep.size(); ++j) {
-      const auto b = static_cast<std::size_t>(sweep[j]);
-      if (object_box[b].lo[0] > object_box[a].hi[0]) break;
-      if (!object_box[a].overlaps(object_box[b])) continue;
-      partners[a].push_back(static_cast<std::int32_t>(b));
-      partners[b].push_back(static_cast<std::int32_t>(a));
-    }
-  }
-  for (auto& p : partners) std::sort(p.begin(), p.end());
+  overlapping_boxes(
+      object_box, 0.0, [&](std::size_t k) { return !topo.objects[k].triangles.empty(); }, partners, sweep);
 }
 
 // Step 2: the query points, owned surface vertices inside the box of a partner object
@@ -487,11 +472,14 @@ void CollisionDetector::Impl::depth(const World& w, const double* x_prev, std::v
     ein.edges = &surface_edges;
     ein.bad_vertex = bad_vertex.data();
     ein.object_box = &object_box;
-    ein.partners = &partners;
     ein.cell_size = grid.cell_size();
+    ein.skin = settings.edge_skin * grid.cell_size();
     ein.self = settings.self_collisions;
     EdgeCounters ec;
+    const std::int64_t searches = edge_finder.pair_searches();
     edge_finder.find(ein, out, ec);
+    st.edge_pairs = static_cast<std::int64_t>(edge_finder.pair_count());
+    st.edge_pair_searches = edge_finder.pair_searches() - searches;
     st.edge_crossings = ec.crossings;
     st.edge_contacts = ec.contacts;
     st.edge_unpaired = ec.unpaired;

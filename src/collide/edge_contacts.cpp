@@ -6,6 +6,7 @@
 #include <numeric>
 #include <tuple>
 
+#include "box_pairs.hpp"
 #include "parallel.hpp"
 
 namespace softcontact::collide {
@@ -199,27 +200,106 @@ bool under_vertex_record(const World& w, const CollisionTopology& topo, const do
   return true;
 }
 
+// The unit normal of a triangle and the unit normals of the planes through its sides,
+// perpendicular to it, pointing away from it. A degenerate triangle separates nothing.
+struct TrianglePlanes {
+  V3 n{0, 0, 0}, side[3]{};
+  V3 at[3]{};
+  double size = 0;  // longest side
+  bool ok = false;
+  TrianglePlanes(const V3& a, const V3& b, const V3& c) {
+    const V3 v[3] = {a, b, c};
+    for (int k = 0; k < 3; ++k) size = std::max(size, std::sqrt(norm2(v[(k + 1) % 3] - v[k])));
+    const V3 nn = cross(b - a, c - a);
+    const double l = std::sqrt(norm2(nn));
+    if (!(l > 1e-12 * size * size) || !std::isfinite(l)) return;
+    n = (1 / l) * nn;
+    for (int k = 0; k < 3; ++k) {
+      const V3 s = cross(v[(k + 1) % 3] - v[k], n);  // in the plane, perpendicular to the side
+      const double ls = std::sqrt(norm2(s));
+      if (!(ls > 0)) return;
+      side[k] = (1 / ls) * s;
+      if (dot(v[(k + 2) % 3] - v[k], side[k]) > 0) side[k] = -1.0 * side[k];
+      at[k] = v[k];
+    }
+    ok = true;
+  }
+  /// Both p and q farther than `reach` beyond the same plane.
+  bool apart(const V3& p, const V3& q, const V3& a, double reach) const {
+    if (!ok) return false;
+    const double dp = dot(p - a, n), dq = dot(q - a, n);
+    if ((dp > reach && dq > reach) || (dp < -reach && dq < -reach)) return true;
+    for (int k = 0; k < 3; ++k)
+      if (dot(p - at[k], side[k]) > reach && dot(q - at[k], side[k]) > reach) return true;
+    return false;
+  }
+};
+
+// A box grown by g on each side (empty stays empty).
+Box grown(Box b, double g) {
+  if (b.empty()) return b;
+  for (std::size_t d = 0; d < 3; ++d) {
+    b.lo[d] -= g;
+    b.hi[d] += g;
+  }
+  return b;
+}
+
 }  // namespace
 
-void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& out, EdgeCounters& counters) {
+// The pairs found at ref_x_ hold every (edge, triangle) pair whose boxes meet at x when
+// no vertex has moved more than skin / 2 since (a piece's box and a triangle's box then
+// moved by at most that much each), no vertex is bad (non-finite; the filters below are
+// applied when the pairs are found) and neither the owned objects nor the settings changed.
+bool EdgeContactFinder::pairs_valid(const EdgeSearchInput& in) const {
+  const World& w = *in.world;
+  const CollisionTopology& topo = *in.topo;
+  const std::size_t n = w.n_local();
+  if (!(in.skin > 0) || in.skin != ref_skin_ || in.cell_size != ref_cell_ || in.self != ref_self_ ||
+      ref_x_.size() != 3 * n || ref_owned_.size() != topo.objects.size())
+    return false;
+  for (std::size_t k = 0; k < topo.objects.size(); ++k)
+    if (ref_owned_[k] != (w.owns_object(topo.objects[k].object) ? 1 : 0)) return false;
+  const double lim = 0.25 * in.skin * in.skin;
+  const double* x = w.x.data();
+  unsigned ok = 1;
+  for (std::size_t v = 0; v < n; ++v) {
+    const double dx = x[3 * v] - ref_x_[3 * v], dy = x[3 * v + 1] - ref_x_[3 * v + 1], dz = x[3 * v + 2] - ref_x_[3 * v + 2];
+    ok &= static_cast<unsigned>(dx * dx + dy * dy + dz * dz <= lim) & static_cast<unsigned>(in.bad_vertex[v] == 0);
+  }
+  return ok != 0;
+}
+
+void EdgeContactFinder::find_pairs(const EdgeSearchInput& in) {
   const World& w = *in.world;
   const CollisionTopology& topo = *in.topo;
   const SurfaceEdges& E = *in.edges;
   const std::vector<Box>& obox = *in.object_box;
-  const std::vector<std::vector<std::int32_t>>& partners = *in.partners;
   const double* x = w.x.data();
   const std::size_t no = topo.objects.size();
-
-  // 1. Candidates: surface edges of owned objects whose box meets a partner's box (with
-  // self-contact: every surface edge of an owned object).
+  const double skin = in.skin > 0 ? in.skin : 0, hs = 0.5 * skin;
+  ++pair_searches_;
+  ref_skin_ = in.skin;
+  ref_cell_ = in.cell_size;
+  ref_self_ = in.self;
+  ref_x_.assign(x, x + 3 * w.n_local());
+  ref_owned_.resize(no);
+  for (std::size_t k = 0; k < no; ++k) ref_owned_[k] = w.owns_object(topo.objects[k].object) ? 1 : 0;
+  pairs_.clear();
   cand_.clear();
   cand_slot_.clear();
+  // Objects whose boxes come within the skin (each box moves at most skin / 2 before the
+  // pairs are found again).
+  overlapping_boxes(obox, hs, [&](std::size_t k) { return !topo.objects[k].triangles.empty(); }, near_, sweep_);
+
+  // Candidates: surface edges of owned objects whose box (grown by skin / 2) meets a near
+  // object's (with self-contact: every surface edge of an owned object).
   cand_box_.assign(no, Box{});
   for (Box& b : cand_box_) b.reset();
   seg_slot_.clear();
   double half = 0;
   for (std::size_t k = 0; k < no; ++k) {
-    if ((partners[k].empty() && !in.self) || !w.owns_object(topo.objects[k].object)) continue;
+    if ((near_[k].empty() && !in.self) || !ref_owned_[k]) continue;
     for (std::size_t e = E.object_begin[k]; e < E.object_begin[k + 1]; ++e) {
       const index_t a = E.a[e], b = E.b[e];
       if (in.bad_vertex[static_cast<std::size_t>(a)] || in.bad_vertex[static_cast<std::size_t>(b)]) continue;
@@ -227,26 +307,29 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
       eb.reset();
       eb.add(load(x, a));
       eb.add(load(x, b));
+      eb = grown(eb, hs);
       bool take = in.self;
-      for (std::size_t q = 0; !take && q < partners[k].size(); ++q) take = obox[static_cast<std::size_t>(partners[k][q])].overlaps(eb);
+      for (std::size_t q = 0; !take && q < near_[k].size(); ++q)
+        take = grown(obox[static_cast<std::size_t>(near_[k][q])], hs).overlaps(eb);
       if (!take) continue;
       cand_.push_back(e);
       cand_slot_.push_back(static_cast<std::int32_t>(k));
       cand_box_[k].add(eb);
     }
   }
+  cand_pq_.resize(6 * cand_.size());
   if (cand_.empty()) return;
   // The grid holds points: each candidate edge goes in as the midpoints of pieces no
   // longer than a cell, so that a triangle's box grown by half a cell finds every edge
   // that can cross it (one long edge, a floor's or a wall's, would otherwise grow every
   // triangle's query box to its own length). Each piece carries its own box: a crossing
   // point lies on some piece, so a triangle needs only the pieces whose box meets its
-  // own, and most of the pieces its grown box finds are rejected by that one test.
+  // own (grown by the skin), and most of the pieces its grown box finds are rejected by
+  // that one test.
   const double cell = in.cell_size;
   mid_.clear();
   seg_edge_.clear();
   piece_box_.clear();
-  cand_pq_.resize(6 * cand_.size());
   for (std::size_t i = 0; i < cand_.size(); ++i) {
     const V3 p = load(x, E.a[cand_[i]]), q = load(x, E.b[cand_[i]]);
     for (std::size_t d = 0; d < 3; ++d) {
@@ -285,24 +368,25 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
     sorted_edge_[k] = seg_edge_[piece];
   }
 
-  // Per object B, where its triangles can meet a partner's candidate edge.
+  // Per object B, where its triangles can meet a near object's candidate edge.
   tri_box_.resize(no);
   for (std::size_t b = 0; b < no; ++b) {
     Box fb;
     fb.reset();
     if (in.self && !cand_box_[b].empty()) fb = cand_box_[b];  // its own candidates (owned objects only)
-    for (std::int32_t a : partners[b]) {
+    const Box ob = grown(obox[b], hs);
+    for (std::int32_t a : near_[b]) {
       const Box& ca = cand_box_[static_cast<std::size_t>(a)];
-      if (ca.empty() || !ca.overlaps(obox[b])) continue;
-      fb.add(ca.intersection(obox[b]));
+      if (ca.empty() || !ca.overlaps(ob)) continue;
+      fb.add(ca.intersection(ob));
     }
     tri_box_[b] = fb;
   }
 
-  // 2. Every surface triangle near a candidate against the edges of other objects.
-  reset_buffers(buf_);
+  // Every surface triangle near a candidate against the pieces of other objects' edges.
+  reset_buffers(pair_buf_);
   passed_.resize(static_cast<std::size_t>(max_threads()));
-
+  hits_.resize(static_cast<std::size_t>(max_threads()));
   const std::size_t s = w.triangles.size() / 3;
   const bool self_on = in.self;
   parallel_for(s, [&](std::size_t r, int th) {
@@ -318,25 +402,12 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
     box.add(a);
     box.add(b);
     box.add(c);
-    if (!box.overlaps(tri_box_[static_cast<std::size_t>(slot)])) return;
-    for (int d = 0; d < 3; ++d) {
-      box.lo[static_cast<std::size_t>(d)] -= half;
-      box.hi[static_cast<std::size_t>(d)] += half;
-    }
-    const CellRange range = grid_.range_of(box);
-    auto& mine = buf_[static_cast<std::size_t>(th)];
-    const Box tight = [&] {
-      Box t;
-      t.reset();
-      t.add(a);
-      t.add(b);
-      t.add(c);
-      return t;
-    }();
-    const V3 nrm = cross(b - a, c - a);
+    if (!grown(box, hs).overlaps(tri_box_[static_cast<std::size_t>(slot)])) return;
+    const Box tight = grown(box, skin);  // a piece's box and this one each move by at most skin / 2
     // Pass 1, branch-free over the runs (contiguous): pieces of another object whose box
-    // meets the triangle's. Pass 2 on the few collected: both endpoints on one side of
-    // its plane, then the exact test.
+    // meets the triangle's. Pass 2 on the few collected: each edge once, not the edge's
+    // own neighbourhood (self-contact).
+    const CellRange range = grid_.range_of(grown(tight, half));
     auto& passed = passed_[static_cast<std::size_t>(th)];
     std::size_t n = 0;
     const std::int32_t* label = grid_.sorted_label();
@@ -352,29 +423,96 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
         n += in;
       }
     };
-    auto test = [&]() {
-      for (std::size_t j = 0; j < n; ++j) {
-        const std::uint32_t i = sorted_edge_[passed[j]];
-        const double* pq = &cand_pq_[6 * static_cast<std::size_t>(i)];
-        if (self_on && cand_slot_[i] == slot) {  // self-contact: not the edge's own neighbourhood
-          const std::size_t e = cand_[i];
-          if (touches_star(topo, E.a[e], t) || touches_star(topo, E.b[e], t)) continue;
-        }
-        const V3 p{pq[0], pq[1], pq[2]}, q{pq[3], pq[4], pq[5]};
-        const double sp = dot(p - a, nrm), sq = dot(q - a, nrm);
-        double tc;
-        bool entering;
-        if (!crosses(p, q, a, b, c, sp, sq, tc, entering)) continue;
-        mine.push_back({i, slot, static_cast<index_t>(r), tc, entering});
-      }
-    };
     // A box spanning more cells than there are edges (a blown-up simulation, or one very
     // long edge): cheaper to test every edge than to visit the cells.
     if (range.count() > static_cast<double>(grid_.num_points())) collect(0, grid_.num_points());
     else grid_.for_each_run(range, collect);
-    test();
+    auto& hits = hits_[static_cast<std::size_t>(th)];
+    hits.clear();
+    for (std::size_t j = 0; j < n; ++j) {
+      const std::uint32_t i = sorted_edge_[passed[j]];
+      if (self_on && cand_slot_[i] == slot) {  // self-contact: not the edge's own neighbourhood
+        const std::size_t e = cand_[i];
+        if (touches_star(topo, E.a[e], t) || touches_star(topo, E.b[e], t)) continue;
+      }
+      hits.push_back(i);
+    }
+    std::sort(hits.begin(), hits.end());  // an edge cut into pieces can meet a box through several
+    hits.erase(std::unique(hits.begin(), hits.end()), hits.end());
+    // An edge that is to cross the triangle before the pairs are found again comes within
+    // the skin of it now (each of its points and of the triangle's moves at most skin / 2):
+    // not both ends farther than that in front of or behind its plane, or outside the
+    // plane through one of its sides, perpendicular to it. The margin covers rounding.
+    const TrianglePlanes tp(a, b, c);
+    const double reach = skin + 1e-9 * tp.size;
+    auto& mine = pair_buf_[static_cast<std::size_t>(th)];
+    for (std::uint32_t i : hits) {
+      const double* pq = &cand_pq_[6 * static_cast<std::size_t>(i)];
+      if (tp.apart(V3{pq[0], pq[1], pq[2]}, V3{pq[3], pq[4], pq[5]}, a, reach)) continue;
+      mine.push_back({i, slot, static_cast<index_t>(r)});
+    }
   });
+  concatenate(pair_buf_, pairs_);
+  run_begin_.clear();
+  for (std::size_t j = 0; j < pairs_.size(); ++j)
+    if (j == 0 || pairs_[j].tri != pairs_[j - 1].tri) run_begin_.push_back(j);
+  run_begin_.push_back(pairs_.size());
+}
+
+
+void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& out, EdgeCounters& counters) {
+  const World& w = *in.world;
+  const CollisionTopology& topo = *in.topo;
+  const SurfaceEdges& E = *in.edges;
+  const double* x = w.x.data();
+
+  // 1. and 2. Candidate pairs (found again only when the skin no longer covers the
+  // motion since they were found), then the exact test of each at x.
+  if (!pairs_valid(in)) find_pairs(in);
   crossings_.clear();
+  if (pairs_.empty()) return;
+  for (std::size_t i = 0; i < cand_.size(); ++i) {
+    const V3 p = load(x, E.a[cand_[i]]), q = load(x, E.b[cand_[i]]);
+    for (std::size_t d = 0; d < 3; ++d) {
+      cand_pq_[6 * i + d] = p[d];
+      cand_pq_[6 * i + 3 + d] = q[d];
+    }
+  }
+  reset_buffers(buf_);
+  passed_.resize(static_cast<std::size_t>(max_threads()));
+  volumes_.resize(static_cast<std::size_t>(max_threads()));
+  parallel_for(run_begin_.size() - 1, [&](std::size_t run, int th) {
+    // The pairs of one triangle: its plane once, then each edge's two signed volumes.
+    const std::size_t j0 = run_begin_[run], j1 = run_begin_[run + 1];
+    const index_t tri = pairs_[j0].tri;
+    const index_t* t = &w.triangles[3 * static_cast<std::size_t>(tri)];
+    const V3 a = load(x, t[0]), b = load(x, t[1]), c = load(x, t[2]);
+    const V3 nrm = cross(b - a, c - a);
+    // Pass 1, branch-free: the ends' signed volumes, and the edges whose ends lie on
+    // opposite sides of the plane. Pass 2: the exact test of those, with the same volumes.
+    auto& passed = passed_[static_cast<std::size_t>(th)];
+    auto& vol = volumes_[static_cast<std::size_t>(th)];
+    if (passed.size() < j1 - j0) passed.resize(2 * (j1 - j0));
+    if (vol.size() < 2 * (j1 - j0)) vol.resize(4 * (j1 - j0));
+    std::size_t n = 0;
+    for (std::size_t j = j0; j < j1; ++j) {
+      const double* pq = &cand_pq_[6 * static_cast<std::size_t>(pairs_[j].edge)];
+      const double sp = dot(V3{pq[0], pq[1], pq[2]} - a, nrm), sq = dot(V3{pq[3], pq[4], pq[5]} - a, nrm);
+      vol[2 * (j - j0)] = sp;
+      vol[2 * (j - j0) + 1] = sq;
+      passed[n] = static_cast<std::uint32_t>(j);
+      n += static_cast<std::size_t>((sp > 0 && sq < 0) | (sp < 0 && sq > 0));
+    }
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::size_t j = passed[k];
+      const double* pq = &cand_pq_[6 * static_cast<std::size_t>(pairs_[j].edge)];
+      const V3 p{pq[0], pq[1], pq[2]}, q{pq[3], pq[4], pq[5]};
+      double tc;
+      bool entering;
+      if (crosses(p, q, a, b, c, vol[2 * (j - j0)], vol[2 * (j - j0) + 1], tc, entering))
+        buf_[static_cast<std::size_t>(th)].push_back({pairs_[j].edge, pairs_[j].slot, tri, tc, entering});
+    }
+  });
   concatenate(buf_, crossings_);
   std::sort(crossings_.begin(), crossings_.end(), [](const Crossing& p, const Crossing& q) {
     if (p.edge != q.edge) return p.edge < q.edge;
@@ -382,10 +520,6 @@ void EdgeContactFinder::find(const EdgeSearchInput& in, std::vector<Collision>& 
     if (p.t != q.t) return p.t < q.t;
     return p.tri < q.tri;
   });
-  // An edge cut into pieces can meet a triangle through more than one piece.
-  crossings_.erase(std::unique(crossings_.begin(), crossings_.end(),
-                               [](const Crossing& p, const Crossing& q) { return p.edge == q.edge && p.tri == q.tri; }),
-                   crossings_.end());
   counters.crossings += static_cast<std::int64_t>(crossings_.size());
 
   // 3. and 4. Pairs of crossings per (edge, body) to edge-edge records.

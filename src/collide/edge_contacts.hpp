@@ -3,14 +3,18 @@
 // gives the response). Vertex-in-tet detection sees a contact only once a vertex is
 // inside another body; two surfaces that meet edge on edge cross without that. Per step,
 // at x~:
-//  1. candidate edges: the surface edges of owned objects whose box meets a partner
-//     object's box; cut into pieces no longer than a grid cell, their pieces' midpoints
-//     go into a uniform grid (the spatial hash of the vertex test, spatial_hash.hpp);
+//  1. candidate edges: the surface edges of owned objects whose box comes within the
+//     skin s of another object's box; cut into pieces no longer than a grid cell, their
+//     pieces' midpoints go into a uniform grid (the spatial hash of the vertex test,
+//     spatial_hash.hpp);
 //  2. every surface triangle of another object near a candidate asks the grid for the
-//     pieces within half a cell of its box, and tests their edges exactly: a
-//     crossing is a strict sign change of the edge's endpoints against the triangle's
-//     plane with the line through the edge inside the triangle (three signed volumes of
-//     one sign);
+//     pieces within half a cell plus s of its box, and keeps the (edge, triangle) pairs
+//     that come within s of each other (boxes, the triangle's plane and side planes).
+//     The pairs are kept over the next steps, until some vertex has moved s / 2 from
+//     where they were found (a Verlet list: every pair that can cross by then is in
+//     it). Every step each pair is tested exactly: a crossing is a strict sign change
+//     of the edge's endpoints against the triangle's plane with the line through the
+//     edge inside the triangle (three signed volumes of one sign);
 //  3. per (edge e1 of A, body B), crossings in order along e1 pair up as (entering,
 //     exiting); skipped when an endpoint of e1 is already a vertex collision with B (the
 //     vertex response removes that overlap), except item 6;
@@ -90,8 +94,12 @@ struct EdgeSearchInput {
   const SurfaceEdges* edges = nullptr;
   const std::uint8_t* bad_vertex = nullptr;                         ///< (n_local)
   const std::vector<Box>* object_box = nullptr;                     ///< per slot
-  const std::vector<std::vector<std::int32_t>>* partners = nullptr;  ///< per slot
   double cell_size = 0;
+  /// Verlet skin [m] of the candidate pairs (docs/collision.md, "Edge contacts", item 2):
+  /// the (edge, triangle) pairs whose boxes come within `skin` of each other are kept
+  /// and only re-found once some vertex has moved skin / 2 from where they were found.
+  /// 0: found again every step. The crossings are the same either way.
+  double skin = 0;
   bool self = false;  ///< also edges through their own body's surface away from their ends' stars (self-contact)
 };
 
@@ -102,7 +110,21 @@ public:
   /// re-sorted here.
   void find(const EdgeSearchInput& in, std::vector<Collision>& out, EdgeCounters& counters);
 
+  /// Times the candidate pairs were found (the first call, and each time a vertex had
+  /// moved half the skin, or the owned objects, the vertices or the settings changed).
+  std::int64_t pair_searches() const { return pair_searches_; }
+  /// Candidate (edge, triangle) pairs held now.
+  std::size_t pair_count() const { return pairs_.size(); }
+
 private:
+  struct Pair {
+    std::uint32_t edge;  // candidate index
+    std::int32_t slot;   // object slot of the triangle
+    index_t tri;         // row of World::triangles
+  };
+  bool pairs_valid(const EdgeSearchInput& in) const;
+  void find_pairs(const EdgeSearchInput& in);
+
   struct Crossing {
     std::uint32_t edge;   // candidate index
     std::int32_t slot;    // object slot of the triangle
@@ -114,7 +136,7 @@ private:
   std::vector<std::size_t> cand_;          // candidate edges (indices into SurfaceEdges)
   std::vector<std::int32_t> cand_slot_;
   std::vector<double> cand_pq_;            // candidates' endpoints (candidates, 6): contiguous for the tests
-  std::vector<index_t> cand_index_;        // 0 .. candidates - 1
+  std::vector<index_t> cand_index_;        // 0 .. pieces - 1
   std::vector<double> mid_;                // midpoints of the candidates' pieces (pieces, 3)
   std::vector<std::uint32_t> seg_edge_;    // candidate of each piece
   std::vector<std::int32_t> seg_slot_;     // object slot of each piece
@@ -123,8 +145,20 @@ private:
   std::vector<std::uint32_t> sorted_edge_; // candidate of each piece, in the grid's order
   std::vector<Box> cand_box_;              // per slot: box of its candidate edges
   std::vector<Box> tri_box_;               // per slot: where its triangles can meet a candidate
+  std::vector<std::vector<std::int32_t>> near_;  // per slot: the slots whose boxes come within the skin
+  std::vector<std::int32_t> sweep_;
+  std::vector<Pair> pairs_;                // candidate pairs, found at ref_x_, a run per triangle
+  std::vector<std::size_t> run_begin_;     // the runs: [run_begin_[k], run_begin_[k + 1])
+  std::vector<std::vector<Pair>> pair_buf_;
+  std::vector<std::vector<std::uint32_t>> hits_;  // per thread: one triangle's candidates
+  std::vector<double> ref_x_;              // positions (n_local, 3) the pairs were found at
+  std::vector<std::uint8_t> ref_owned_;    // per slot: owned when they were found
+  double ref_skin_ = -1, ref_cell_ = 0;
+  bool ref_self_ = false;
+  std::int64_t pair_searches_ = 0;
   std::vector<std::vector<Crossing>> buf_;
-  std::vector<std::vector<std::uint32_t>> passed_;  // per thread: pieces that passed the box test
+  std::vector<std::vector<std::uint32_t>> passed_;  // per thread: pieces that passed the box test, or pairs the plane test
+  std::vector<std::vector<double>> volumes_;        // per thread: the pairs' signed volumes (one triangle's)
   std::vector<Crossing> crossings_;
   /// (point, other object, index in `out`) of the vertex records, sorted.
   std::vector<std::tuple<index_t, std::int32_t, std::size_t>> vertex_records_;
