@@ -61,6 +61,11 @@ struct BenchResult {
   /// Collision records whose triangle lies on another rank's object / all records.
   double cross_rank_fraction = 0;
   std::int64_t ghost_rebuilds = 0;  ///< ghost-set rebuilds during the timed steps (rank 0)
+  /// With edge contacts: timed steps in which the edge search found its candidate pairs
+  /// again (the skin used up; rank 0), and the pairs held per step (mean over steps, sum
+  /// over ranks).
+  std::int64_t edge_pair_searches = 0;
+  double edge_pairs_mean = 0;
 
   // Summaries of `steps` (filled by run_bench; summarise() recomputes them).
   Spread collisions;

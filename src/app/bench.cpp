@@ -151,7 +151,7 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
 
   const double start = MPI_Wtime();
   double last_report = start, loop_start = start;
-  std::int64_t unused = 0, bytes0 = 0, rebuilds0 = 0, cross = 0, records = 0;
+  std::int64_t unused = 0, bytes0 = 0, rebuilds0 = 0, cross = 0, records = 0, edge_searches = 0, edge_pairs = 0;
   double compute = 0;
   for (std::int64_t k = 1; k <= total_steps; ++k) {
     const bool timed = k > opt.warmup;
@@ -175,6 +175,8 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
       compute += p.forces + p.integrate + p.detect + p.depth;
       cross += sim.cross_rank_collisions();
       records += sim.collision_stats().collisions;
+      edge_searches += sim.collision_stats().edge_pair_searches;
+      edge_pairs += sim.collision_stats().edge_pairs;
     }
     if (rank == 0 && !opt.quiet) {
       const double now = MPI_Wtime();
@@ -212,6 +214,9 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
     r.compute_imbalance = csum > 0 ? cmax / (csum / size) : 1;
     r.cross_rank_fraction = cr[1] > 0 ? static_cast<double>(cr[0]) / static_cast<double>(cr[1]) : 0;
     r.ghost_rebuilds = sim.ghost_rebuilds() - rebuilds0;
+    MPI_Allreduce(MPI_IN_PLACE, &edge_pairs, 1, MPI_INT64_T, MPI_SUM, comm);
+    r.edge_pair_searches = edge_searches;
+    r.edge_pairs_mean = n > 0 ? static_cast<double>(edge_pairs) / static_cast<double>(n) : 0;
   }
 
   MPI_Allreduce(MPI_IN_PLACE, secs.data(), static_cast<int>(secs.size()), MPI_DOUBLE, MPI_MAX, comm);
@@ -271,6 +276,9 @@ void print_bench_table(std::ostream& out, const BenchResult& r) {
       << num(r.loop_seconds, 3) << " s)\n"
       << "  peak memory per rank (ru_maxrss): max " << fixed(r.rss_max_mib, 1) << " MiB, mean "
       << fixed(r.rss_mean_mib, 1) << " MiB\n";
+  if (r.edge_pairs_mean > 0)
+    out << "  edge search: " << fixed(r.edge_pairs_mean, 0) << " candidate pairs per step (mean), found again in "
+        << r.edge_pair_searches << " of " << r.steps.size() << " timed steps\n";
   if (r.ranks > 1)
     out << "  halo traffic per step and rank: max " << fixed(r.halo_bytes_max / 1024, 1) << " KiB, mean "
         << fixed(r.halo_bytes_mean / 1024, 1) << " KiB; ghost rebuilds " << r.ghost_rebuilds << "\n"
