@@ -50,7 +50,7 @@
 
 namespace softcontact {
 
-class Halo;
+class NeighbourExchange;
 
 /// Static-friction anchor of a point against one other body: where on that body it
 /// sticks (barycentric coordinates in a surface triangle of that body, by global vertex
@@ -109,15 +109,16 @@ public:
   /// world.x and world.v of movable owned vertices (x_prev, holding x^t, is unchanged).
   /// `collisions` must be sorted by (point_gid, triangle_gid), as CollisionDetector
   /// produces them: every per-vertex sum follows that order, independent of threads and
-  /// ranks. With several ranks, `collisions` are this rank's (owned points) and `halo`
-  /// carries the column sums, local forces and corrected motions of ghost vertices to
-  /// and from their owners (collective over the halo's neighbours); ghost rows of
-  /// world.x are not changed (Halo::update refreshes them afterwards).
+  /// ranks. With several ranks, `collisions` are this rank's (owned points) and `exchange`
+  /// (the parallel layer's Halo, exchange.hpp) carries the column sums, local forces and
+  /// corrected motions of ghost vertices to and from their owners (collective over its
+  /// neighbours); ghost rows of world.x are not changed (Halo::update refreshes them
+  /// afterwards).
   void respond(World& world, const std::vector<Collision>& collisions, double dt, ContactStats& stats,
-               Halo* halo = nullptr);
+               NeighbourExchange* exchange = nullptr);
 
   /// After respond() and after the ghost positions are refreshed: new anchors from the
-  /// final positions (respond() calls it itself when there is no halo).
+  /// final positions (respond() calls it itself when there is no exchange).
   void update_anchors(const World& world, const std::vector<Collision>& collisions);
 
   /// Anchors per owned vertex (n_owned), for migration and checkpoints.
@@ -152,7 +153,7 @@ private:
     double friction[3];      // sum of friction local forces
     double depth[3];         // sum of d_i as point i
     gid_t gid;
-    std::int32_t nb;         // ghost: index of its owner among the halo's neighbours; owned: -1
+    std::int32_t nb;         // ghost: index of its owner among the exchange's neighbours; owned: -1
     bool remote;             // owned, with contributions from other ranks in the current sum
   };
   struct Local {             // per collision
@@ -188,14 +189,14 @@ private:
     double v[3];
   };
   std::int32_t slot_of_vertex(const World& w, index_t v);
-  void plan_ghosts(const World& w, Halo* halo);
+  void plan_ghosts(const World& w, NeighbourExchange* exchange);
   template <class Emit, class Target>
-  void reduce(const std::vector<Collision>& col, int dim, Emit&& emit, Target&& target, Halo* halo);
+  void reduce(const std::vector<Collision>& col, int dim, Emit&& emit, Target&& target, NeighbourExchange* exchange);
   template <class Value>
-  void reply(int dim, Value&& value, Halo* halo);
+  void reply(int dim, Value&& value, NeighbourExchange* exchange);
   void effective_depths(const std::vector<Collision>& c, double dt);
   std::int64_t normal_coefficients(const std::vector<Collision>& c, double dt);
-  void coupled_coefficients(const std::vector<Collision>& c, double dt, Halo* halo, ContactStats& stats);
+  void coupled_coefficients(const std::vector<Collision>& c, double dt, NeighbourExchange* exchange, ContactStats& stats);
   void dynamic_fractions(const std::vector<Collision>& c);
   void friction_coefficients(const std::vector<Collision>& c, ContactStats& stats);
   void materialize();

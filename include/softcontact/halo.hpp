@@ -15,9 +15,9 @@
 #include <mpi.h>
 
 #include <cstdint>
-#include <cstring>
 #include <vector>
 
+#include "softcontact/exchange.hpp"
 #include "softcontact/world.hpp"
 
 namespace softcontact {
@@ -26,7 +26,7 @@ namespace softcontact {
 /// contiguous, as build_world lays them out), from the global layout alone.
 std::vector<index_t> owner_vertex_offsets(const World& w);
 
-class Halo {
+class Halo final : public NeighbourExchange {
 public:
   /// Collective over `comm`: builds the broadcast graph of w's ghost vertices.
   Halo(MPI_Comm comm, const World& w);
@@ -37,12 +37,14 @@ public:
   /// Copies the owners' rows of `xyz` (n_local,3) into the ghost rows. Collective.
   void update(double* xyz);
 
-  /// Ranks this rank exchanges with, ascending (empty on one rank).
-  const std::vector<int>& neighbors() const { return neighbors_; }
-
-  /// Sends send[k] to neighbors()[k] and returns what each neighbour sent, in the same
-  /// order. Collective over the neighbours (every neighbour must call it too).
-  std::vector<std::vector<char>> exchange_bytes(const std::vector<std::vector<char>>& send);
+  // NeighbourExchange (exchange.hpp), over `comm`.
+  const std::vector<int>& neighbors() const override { return neighbors_; }
+  std::vector<std::vector<char>> exchange_bytes(const std::vector<std::vector<char>>& send) override;
+  int rank() const override { return rank_; }
+  int ranks() const override { return ranks_; }
+  std::vector<std::vector<char>> gather_to_root(const std::vector<char>& mine) override;
+  std::vector<char> scatter_from_root(const std::vector<std::vector<char>>& parts, std::size_t my_bytes) override;
+  void broadcast_from_root(void* data, std::size_t bytes) override;
 
   MPI_Comm comm() const { return comm_; }
 
@@ -51,25 +53,12 @@ public:
 
 private:
   MPI_Comm comm_;
+  int rank_ = 0, ranks_ = 1;
   void* sf_ = nullptr;  // PetscSF
   MPI_Datatype xyz_type_ = MPI_DATATYPE_NULL;
   std::vector<int> neighbors_;
   std::int64_t ghost_rows_ = 0;
   std::int64_t bytes_received_ = 0;
 };
-
-/// Packs trivially copyable records into a byte buffer and back.
-template <class T>
-void append_records(std::vector<char>& buf, const T* rec, std::size_t n) {
-  const std::size_t at = buf.size();
-  buf.resize(at + n * sizeof(T));
-  if (n) std::memcpy(buf.data() + at, rec, n * sizeof(T));
-}
-template <class T>
-std::vector<T> read_records(const std::vector<char>& buf) {
-  std::vector<T> out(buf.size() / sizeof(T));
-  if (!out.empty()) std::memcpy(out.data(), buf.data(), out.size() * sizeof(T));
-  return out;
-}
 
 }  // namespace softcontact

@@ -11,7 +11,6 @@
 // the sums the others need back (reply). The arithmetic is the same on any rank count.
 #include "softcontact/contact.hpp"
 
-#include <mpi.h>
 
 #include <algorithm>
 #include <cmath>
@@ -19,7 +18,7 @@
 #include "coupled_closure.hpp"
 
 #include "softcontact/error.hpp"
-#include "softcontact/halo.hpp"
+#include "softcontact/exchange.hpp"
 #include "softcontact/verify.hpp"
 
 namespace softcontact {
@@ -75,12 +74,12 @@ std::int32_t ContactSolver::slot_of_vertex(const World& w, index_t v) {
 
 // Which ghost slots each neighbour owns (our requests), and which of our vertices each
 // neighbour asks for (served): exchanged once per step, with the column sums.
-void ContactSolver::plan_ghosts(const World& w, Halo* halo) {
-  const std::size_t nn = halo ? halo->neighbors().size() : 0;
+void ContactSolver::plan_ghosts(const World& w, NeighbourExchange* exchange) {
+  const std::size_t nn = exchange ? exchange->neighbors().size() : 0;
   request_.assign(nn, {});
   served_.assign(nn, {});
   if (nn == 0) return;
-  const std::vector<int>& nbr = halo->neighbors();
+  const std::vector<int>& nbr = exchange->neighbors();
   for (std::size_t k = 0; k < slots_.size(); ++k) {
     const index_t v = vertex_of_[k];
     if (static_cast<std::size_t>(v) < w.n_owned) continue;
@@ -95,7 +94,7 @@ void ContactSolver::plan_ghosts(const World& w, Halo* halo) {
     for (std::int32_t k : request_[n]) gids.push_back(slots_[static_cast<std::size_t>(k)].gid);
     append_records(send[n], gids.data(), gids.size());
   }
-  const auto recv = halo->exchange_bytes(send);
+  const auto recv = exchange->exchange_bytes(send);
   std::vector<std::pair<gid_t, std::int32_t>> served;
   for (std::size_t n = 0; n < nn; ++n)
     for (gid_t g : read_records<gid_t>(recv[n])) {
@@ -119,7 +118,7 @@ void ContactSolver::plan_ghosts(const World& w, Halo* halo) {
 // (zero before). Owned slots get their complete sums; ghost slots none (reply() fills
 // what is needed).
 template <class Emit, class Target>
-void ContactSolver::reduce(const std::vector<Collision>& col, int dim, Emit&& emit, Target&& target, Halo* halo) {
+void ContactSolver::reduce(const std::vector<Collision>& col, int dim, Emit&& emit, Target&& target, NeighbourExchange* exchange) {
   const std::size_t nn = request_.size();
   remote_.clear();
   if (nn > 0) {
@@ -134,7 +133,7 @@ void ContactSolver::reduce(const std::vector<Collision>& col, int dim, Emit&& em
         out[static_cast<std::size_t>(s.nb)].push_back(r);
       });
     for (std::size_t n = 0; n < nn; ++n) append_records(send[n], out[n].data(), out[n].size());
-    const auto recv = halo->exchange_bytes(send);
+    const auto recv = exchange->exchange_bytes(send);
     for (std::size_t n = 0; n < nn; ++n) {
       const std::vector<Record> in = read_records<Record>(recv[n]);
       remote_.insert(remote_.end(), in.begin(), in.end());
@@ -183,7 +182,7 @@ void ContactSolver::reduce(const std::vector<Collision>& col, int dim, Emit&& em
 // The owners send value(slot) of every vertex a neighbour asked for; the answers land
 // in the neighbour's ghost slots through value(slot) as a destination.
 template <class Value>
-void ContactSolver::reply(int dim, Value&& value, Halo* halo) {
+void ContactSolver::reply(int dim, Value&& value, NeighbourExchange* exchange) {
   const std::size_t nn = request_.size();
   if (nn == 0) return;
   std::vector<std::vector<char>> send(nn);
@@ -196,7 +195,7 @@ void ContactSolver::reply(int dim, Value&& value, Halo* halo) {
     }
     append_records(send[n], vals.data(), vals.size());
   }
-  const auto recv = halo->exchange_bytes(send);
+  const auto recv = exchange->exchange_bytes(send);
   for (std::size_t n = 0; n < nn; ++n) {
     const std::vector<double> vals = read_records<double>(recv[n]);
     SC_ASSERT(vals.size() == static_cast<std::size_t>(dim) * request_[n].size());
@@ -339,7 +338,7 @@ std::int64_t ContactSolver::normal_coefficients(const std::vector<Collision>& co
 // rank list), solved there and the magnitudes sent back: the same matrix and the same
 // arithmetic on any rank count. Friction keeps the per-collision coefficients (fa, faT)
 // for its stopping forces; Coulomb's cone takes the coupled normal force.
-void ContactSolver::coupled_coefficients(const std::vector<Collision>& col, double dt, Halo* halo, ContactStats& stats) {
+void ContactSolver::coupled_coefficients(const std::vector<Collision>& col, double dt, NeighbourExchange* exchange, ContactStats& stats) {
   const std::size_t nc = col.size();
   std::vector<contact::ClosureRow> rows(nc);
   for (std::size_t q = 0; q < nc; ++q) {
@@ -364,32 +363,24 @@ void ContactSolver::coupled_coefficients(const std::vector<Collision>& col, doub
   }
   contact::ClosureStats cs;
   std::vector<double> x;
-  int nranks = 1, rank = 0;
-  if (halo) {
-    MPI_Comm_size(halo->comm(), &nranks);
-    MPI_Comm_rank(halo->comm(), &rank);
-  }
+  const int nranks = exchange ? exchange->ranks() : 1;
   if (nranks == 1) {
     x = contact::solve_closure(rows, kClosureEps, cs);
   } else {
-    const MPI_Comm comm = halo->comm();
-    const int bytes = static_cast<int>(nc * sizeof(contact::ClosureRow));
-    std::vector<int> counts(static_cast<std::size_t>(nranks), 0), displs(static_cast<std::size_t>(nranks), 0);
-    MPI_Gather(&bytes, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm);
-    std::vector<contact::ClosureRow> all;
-    if (rank == 0) {
-      std::int64_t total = 0;
-      for (int p = 0; p < nranks; ++p) {
-        displs[static_cast<std::size_t>(p)] = static_cast<int>(total);
-        total += counts[static_cast<std::size_t>(p)];
-      }
-      all.resize(static_cast<std::size_t>(total) / sizeof(contact::ClosureRow));
-    }
-    MPI_Gatherv(rows.data(), bytes, MPI_BYTE, all.data(), counts.data(), displs.data(), MPI_BYTE, 0, comm);
-    std::vector<double> xs;  // per row of `all`, in the order received
-    if (rank == 0) {
+    std::vector<char> mine;
+    append_records(mine, rows.data(), rows.size());
+    const std::vector<std::vector<char>> parts = exchange->gather_to_root(mine);
+    std::vector<std::vector<char>> answers;
+    if (exchange->rank() == 0) {
       // Each rank's rows are in key order and the keys are unique across ranks: sorted
       // by key, the rows are the one-rank list.
+      std::vector<contact::ClosureRow> all;
+      std::vector<std::size_t> first(parts.size() + 1, 0);  // rows of rank p: [first[p], first[p + 1])
+      for (std::size_t p = 0; p < parts.size(); ++p) {
+        const std::vector<contact::ClosureRow> r = read_records<contact::ClosureRow>(parts[p]);
+        all.insert(all.end(), r.begin(), r.end());
+        first[p + 1] = all.size();
+      }
       std::vector<std::int32_t> order(all.size());
       for (std::size_t i = 0; i < all.size(); ++i) order[i] = static_cast<std::int32_t>(i);
       std::sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
@@ -400,18 +391,14 @@ void ContactSolver::coupled_coefficients(const std::vector<Collision>& col, doub
       std::vector<contact::ClosureRow> sorted(all.size());
       for (std::size_t i = 0; i < all.size(); ++i) sorted[i] = all[static_cast<std::size_t>(order[i])];
       const std::vector<double> xo = contact::solve_closure(sorted, kClosureEps, cs);
-      xs.resize(all.size());
+      std::vector<double> xs(all.size());  // per row of `all`, in the order received
       for (std::size_t i = 0; i < all.size(); ++i) xs[static_cast<std::size_t>(order[i])] = xo[i];
-      for (int p = 0; p < nranks; ++p) {
-        counts[static_cast<std::size_t>(p)] /= static_cast<int>(sizeof(contact::ClosureRow));
-        displs[static_cast<std::size_t>(p)] /= static_cast<int>(sizeof(contact::ClosureRow));
-      }
+      answers.resize(parts.size());
+      for (std::size_t p = 0; p < parts.size(); ++p) append_records(answers[p], xs.data() + first[p], first[p + 1] - first[p]);
     }
-    x.resize(nc);
-    MPI_Scatterv(xs.data(), counts.data(), displs.data(), MPI_DOUBLE, x.data(), static_cast<int>(nc), MPI_DOUBLE, 0,
-                 comm);
+    x = read_records<double>(exchange->scatter_from_root(answers, nc * sizeof(double)));
     std::int64_t st[3] = {cs.rows, cs.dropped, cs.local};
-    MPI_Bcast(st, 3, MPI_INT64_T, 0, comm);
+    exchange->broadcast_from_root(st, sizeof st);
     cs.rows = st[0];
     cs.dropped = st[1];
     cs.local = st[2];
@@ -539,7 +526,7 @@ void ContactSolver::friction_coefficients(const std::vector<Collision>& col, Con
   stats.sliding = sliding;
 }
 
-void ContactSolver::respond(World& w, const std::vector<Collision>& col, double dt, ContactStats& stats, Halo* halo) {
+void ContactSolver::respond(World& w, const std::vector<Collision>& col, double dt, ContactStats& stats, NeighbourExchange* exchange) {
   for (index_t v : vertex_of_) slot_of_[static_cast<std::size_t>(v)] = -1;
   vertex_of_.clear();
   slots_.clear();
@@ -577,11 +564,11 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
     const bool anchored = an && an->step >= step_ - kAnchorGrace;
     for (int k = 0; k < 3; ++k) L.anchor_slot[k] = anchored ? slot_of_vertex(w, w.local_vertex(an->object, an->tri[k])) : -1;
   }
-  plan_ghosts(w, halo);  // collective over the neighbours, also without collisions
+  plan_ghosts(w, exchange);  // collective over the neighbours, also without collisions
   // Without neighbours and collisions there is nothing to do; with neighbours every
   // exchange below must take place (they may need our vertices' sums).
   if (request_.empty() && col.empty()) {
-    if (coupled_) coupled_coefficients(col, dt, halo, stats);  // collective: rank 0 gathers every rank's rows
+    if (coupled_) coupled_coefficients(col, dt, exchange, stats);  // collective: rank 0 gathers every rank's rows
     return;
   }
 
@@ -598,12 +585,12 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
           f(local_[q].slot[1 + k], pj);
         }
       },
-      [](Slot& s) { return s.share; }, halo);
-  reply(3, [](Slot& s) { return s.share; }, halo);
+      [](Slot& s) { return s.share; }, exchange);
+  reply(3, [](Slot& s) { return s.share; }, exchange);
   effective_depths(col, dt);
   stats.separating = capped_;
   stats.fixed_pairs = normal_coefficients(col, dt);
-  if (coupled_) coupled_coefficients(col, dt, halo, stats);
+  if (coupled_) coupled_coefficients(col, dt, exchange, stats);
 
   // Normal forces f_i = a_i d_i, f_Ti,j = a_j d_i per vertex; the normal correction
   // (friction sees the corrected motion), x = x~ + dt^2 F / m, of the owned slots; the
@@ -620,12 +607,12 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
           f(L.slot[1 + k], fj);
         }
       },
-      [](Slot& s) { return s.normal; }, halo);
+      [](Slot& s) { return s.normal; }, exchange);
   const double dt2 = dt * dt;
   for (Slot& s : slots_)
     if (s.nb < 0)
       for (int d = 0; d < 3; ++d) s.dx[d] += dt2 * s.inv_mass * s.normal[d];
-  reply(3, [](Slot& s) { return s.dx; }, halo);
+  reply(3, [](Slot& s) { return s.dx; }, exchange);
   dynamic_fractions(col);
   // The dynamic part of the same forces (dynamic_fractions): what changes velocities.
   reduce(
@@ -642,7 +629,7 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
           f(L.slot[1 + k], fj);
         }
       },
-      [](Slot& s) { return s.normal_dynamic; }, halo);
+      [](Slot& s) { return s.normal_dynamic; }, exchange);
   for (std::size_t q = 0; q < col.size(); ++q) {
     if (col[q].point2 >= 0) continue;  // the penetration field is per point: vertex collisions
     Slot& si = slots_[static_cast<std::size_t>(local_[q].slot[0])];
@@ -662,7 +649,7 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
           f(L.slot[1 + k], fj);
         }
       },
-      [](Slot& s) { return s.friction; }, halo);
+      [](Slot& s) { return s.friction; }, exchange);
 
   double sum[3] = {0, 0, 0}, abs_sum = 0;
   for (std::size_t k = 0; k < slots_.size(); ++k) {
@@ -689,7 +676,7 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
   for (int d = 0; d < 3; ++d) stats.force_sum[d] = sum[d];
   stats.force_abs_sum = abs_sum;
   stats.force_balance = abs_sum > 0 ? norm3(sum) / abs_sum : 0;
-  if (!halo) update_anchors(w, col);
+  if (!exchange) update_anchors(w, col);
 }
 
 // The in-run check's classes (RecordStatus, verify.hpp): capped when the applied

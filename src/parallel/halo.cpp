@@ -28,6 +28,8 @@ std::vector<index_t> owner_vertex_offsets(const World& w) {
 }
 
 Halo::Halo(MPI_Comm comm, const World& w) : comm_(comm) {
+  MPI_Comm_rank(comm_, &rank_);
+  MPI_Comm_size(comm_, &ranks_);
   MPI_Type_contiguous(3, MPI_DOUBLE, &xyz_type_);
   MPI_Type_commit(&xyz_type_);
   const std::vector<index_t> owner_off = owner_vertex_offsets(w);
@@ -92,6 +94,51 @@ std::vector<std::vector<char>> Halo::exchange_bytes(const std::vector<std::vecto
   }
   MPI_Waitall(static_cast<int>(2 * nn), req.data(), MPI_STATUSES_IGNORE);
   return recv;
+}
+
+// The collective patterns below are not counted in bytes_received(): they serve the
+// coupled closure's direct solve, a gather of whole rows to rank 0, not the halo.
+std::vector<std::vector<char>> Halo::gather_to_root(const std::vector<char>& mine) {
+  const int bytes = static_cast<int>(mine.size());
+  std::vector<int> counts(static_cast<std::size_t>(ranks_), 0), displs(static_cast<std::size_t>(ranks_), 0);
+  MPI_Gather(&bytes, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm_);
+  std::vector<char> all;
+  if (rank_ == 0) {
+    std::int64_t total = 0;
+    for (int p = 0; p < ranks_; ++p) {
+      displs[static_cast<std::size_t>(p)] = static_cast<int>(total);
+      total += counts[static_cast<std::size_t>(p)];
+    }
+    all.resize(static_cast<std::size_t>(total));
+  }
+  MPI_Gatherv(mine.data(), bytes, MPI_BYTE, all.data(), counts.data(), displs.data(), MPI_BYTE, 0, comm_);
+  std::vector<std::vector<char>> out;
+  if (rank_ != 0) return out;
+  out.resize(static_cast<std::size_t>(ranks_));
+  for (std::size_t p = 0; p < out.size(); ++p)
+    out[p].assign(all.begin() + displs[p], all.begin() + displs[p] + counts[p]);
+  return out;
+}
+
+std::vector<char> Halo::scatter_from_root(const std::vector<std::vector<char>>& parts, std::size_t my_bytes) {
+  std::vector<int> counts, displs;
+  std::vector<char> all;
+  if (rank_ == 0) {
+    SC_ASSERT(parts.size() == static_cast<std::size_t>(ranks_));
+    for (const auto& p : parts) {
+      displs.push_back(static_cast<int>(all.size()));
+      counts.push_back(static_cast<int>(p.size()));
+      all.insert(all.end(), p.begin(), p.end());
+    }
+  }
+  std::vector<char> mine(my_bytes);
+  MPI_Scatterv(all.data(), counts.data(), displs.data(), MPI_BYTE, mine.data(), static_cast<int>(my_bytes), MPI_BYTE, 0,
+               comm_);
+  return mine;
+}
+
+void Halo::broadcast_from_root(void* data, std::size_t bytes) {
+  MPI_Bcast(data, static_cast<int>(bytes), MPI_BYTE, 0, comm_);
 }
 
 }  // namespace softcontact
