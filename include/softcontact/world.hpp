@@ -8,7 +8,6 @@
 // Global numbering: objects in scene order; an object's vertices, tets and surface
 // triangles take consecutive global ids, so global order = scene order everywhere
 // (HDF5 rows, diagnostics, summation order).
-#include <mpi.h>
 
 #include <cstdint>
 #include <string>
