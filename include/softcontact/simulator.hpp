@@ -144,6 +144,14 @@ public:
   std::int64_t cross_rank_collisions() const { return cross_collisions_; }
 
 private:
+  // The phases of step(), in order.
+  void forces_phase();
+  void unconstrained_motion();
+  void refresh_predicted_ghosts();
+  void detection_and_depth();
+  void contact_response();
+  void refresh_final_ghosts();
+
   void compute_forces();
   void build_components();
   void rebuild_ghosts(bool force);

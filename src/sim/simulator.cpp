@@ -350,66 +350,87 @@ void Simulator::settle_mutual_records() {
   collision_stats_.mutual_settled = detector_->settle_mutual(world_, collisions_, record_keys_);
 }
 
+// One step, the paper's Algorithm 1 (docs/architecture.md, "One step"); the two ghost
+// refreshes are the parallel layer's part and do nothing on one rank.
 void Simulator::step() {
-  const Simulation& sim = scene_.sim;
-  const PhaseEvents& ev = phase_events();
   maybe_rebalance();
-  double t = MPI_Wtime();
-  {
-    PhaseLog log(ev, ev.forces);
-    compute_forces();
-  }
-  times_.forces += MPI_Wtime() - t;
-  work_seconds_ += MPI_Wtime() - t;
+  forces_phase();                // p(x^t, v^t): gravity, internal forces, damping
+  unconstrained_motion();        // x~ from p (explicit or implicit), prescribed motion
+  refresh_predicted_ghosts();    // ghost rows of x~ and x^t from their owners
+  detection_and_depth();         // colliding points and their consistent penetration depths
+  contact_response();            // contact forces: x^{t+h} and v^{t+h} of the colliding points
+  refresh_final_ghosts();        // ghost rows of x^{t+h}, stiction anchors
+  ++step_;
+  ++timed_steps_;
+}
 
-  t = MPI_Wtime();
+namespace {
+// Runs f as one phase: its PETSc log event around it; returns its wall seconds.
+template <class F>
+double timed_phase(PetscLogEvent PhaseEvents::*event, F&& f) {
+  const PhaseEvents& ev = phase_events();
+  const double t = MPI_Wtime();
   {
-    PhaseLog log(ev, ev.integrate);
+    PhaseLog log(ev, ev.*event);
+    f();
+  }
+  return MPI_Wtime() - t;
+}
+}  // namespace
+
+void Simulator::forces_phase() {
+  const double s = timed_phase(&PhaseEvents::forces, [this] { compute_forces(); });
+  times_.forces += s;
+  work_seconds_ += s;
+}
+
+void Simulator::unconstrained_motion() {
+  const Simulation& sim = scene_.sim;
+  times_.integrate += timed_phase(&PhaseEvents::integrate, [&] {
     if (implicit_) implicit_->step(world_, sim, f_);
     else unconstrained_step(world_, sim, f_);  // World::x = x~, World::x_prev = x^t
     prescribed_motion(world_, time(), time() + sim.dt);  // moving anchors (scene `motion`)
-  }
-  times_.integrate += MPI_Wtime() - t;
+  });
+}
 
-  if (halo_) {
-    // Ghost rows: x^t is what the last step ended with; x~ comes from the owners (and
-    // the ghost set is rebuilt when objects have moved far enough to need it).
-    t = MPI_Wtime();
-    std::copy(world_.x.begin() + static_cast<std::ptrdiff_t>(3 * world_.n_owned), world_.x.end(),
-              world_.x_prev.begin() + static_cast<std::ptrdiff_t>(3 * world_.n_owned));
-    if (ghosts_stale()) rebuild_ghosts(false);
-    else halo_->update(world_.x.data());
-    times_.comm += MPI_Wtime() - t;
-  }
+// Ghost rows: x^t is what the last step ended with; x~ comes from the owners (and the
+// ghost set is rebuilt when objects have moved far enough to need it).
+void Simulator::refresh_predicted_ghosts() {
+  if (!halo_) return;
+  const double t = MPI_Wtime();
+  std::copy(world_.x.begin() + static_cast<std::ptrdiff_t>(3 * world_.n_owned), world_.x.end(),
+            world_.x_prev.begin() + static_cast<std::ptrdiff_t>(3 * world_.n_owned));
+  if (ghosts_stale()) rebuild_ghosts(false);
+  else halo_->update(world_.x.data());
+  times_.comm += MPI_Wtime() - t;
+}
 
-  {
-    PhaseLog log(ev, ev.collide);
+// The detector times its two parts itself.
+void Simulator::detection_and_depth() {
+  timed_phase(&PhaseEvents::collide, [this] {
     detector_->detect(world_, world_.x_prev.data(), collisions_, collision_stats_);
     if (scene_.sim.mutual_pairs) settle_mutual_records();
-  }
+  });
   times_.detect += collision_stats_.detection_seconds;
   times_.depth += collision_stats_.depth_seconds;
   work_seconds_ += collision_stats_.detection_seconds + collision_stats_.depth_seconds;
+}
 
-  t = MPI_Wtime();
-  {
-    PhaseLog log(ev, ev.contact);
-    contact_->respond(world_, collisions_, sim.dt, contact_stats_, halo_.get());
-  }
+void Simulator::contact_response() {
+  times_.contact += timed_phase(&PhaseEvents::contact, [this] {
+    contact_->respond(world_, collisions_, scene_.sim.dt, contact_stats_, halo_.get());
+  });
+}
 
-
-  times_.contact += MPI_Wtime() - t;
-  if (halo_) {
-    t = MPI_Wtime();
-    halo_->update(world_.x.data());  // the final positions, for the anchors and the next step
-    times_.comm += MPI_Wtime() - t;
-    contact_->update_anchors(world_, collisions_);
-    cross_collisions_ = 0;
-    for (const Collision& c : collisions_) cross_collisions_ += world_.owns_object(c.other_object) ? 0 : 1;
-  }
-
-  ++step_;
-  ++timed_steps_;
+// The final positions, for the anchors and the next step; the collisions that crossed ranks.
+void Simulator::refresh_final_ghosts() {
+  if (!halo_) return;
+  const double t = MPI_Wtime();
+  halo_->update(world_.x.data());
+  times_.comm += MPI_Wtime() - t;
+  contact_->update_anchors(world_, collisions_);
+  cross_collisions_ = 0;
+  for (const Collision& c : collisions_) cross_collisions_ += world_.owns_object(c.other_object) ? 0 : 1;
 }
 
 // Every check_every steps: repartition with METIS at the current boxes when the work per
