@@ -11,6 +11,10 @@ namespace softcontact {
 using index_t = std::int32_t;   ///< local index (vertex, tet, triangle) within one object or rank
 using gid_t = std::int64_t;     ///< global id: never changes, unique across the whole scene
 
+/// Corner pairs of the six edges of a tet (corners 0..3), in the one order every part of
+/// the code uses (rest lengths, mesh edges, edge statistics).
+inline constexpr int kTetEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+
 struct TetMesh {
   std::vector<double> points;    ///< (n,3) interleaved x,y,z [m]
   std::vector<index_t> tets;     ///< (m,4) vertex indices, positive orientation after validation

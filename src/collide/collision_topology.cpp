@@ -87,12 +87,11 @@ void build_faces(const World& w, CollisionTopology& t) {
 
 // Distinct mesh edges as a sorted adjacency (CSR) and their mean length.
 void build_edges(const World& w, CollisionTopology& t) {
-  static constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
   const std::size_t n = w.n_local(), m = w.tets.size() / 4;
   std::vector<std::uint64_t> pairs;
   pairs.reserve(6 * m);
   for (std::size_t e = 0; e < m; ++e)
-    for (const auto& ed : kEdges) {
+    for (const auto& ed : kTetEdges) {
       auto a = static_cast<std::uint64_t>(w.tets[4 * e + ed[0]]), b = static_cast<std::uint64_t>(w.tets[4 * e + ed[1]]);
       if (a > b) std::swap(a, b);
       if (a != b) pairs.push_back(a << 32 | b);

@@ -32,11 +32,9 @@
 #include <cmath>
 
 #include "material_law.hpp"
+#include "softcontact/mesh.hpp"
 
 namespace softcontact::model {
-
-/// Corner pairs of the six tet edges, in the order used for rest lengths.
-inline constexpr int kTetEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
 
 struct MassSpringLaw {
   double young = 0;  ///< E [Pa]

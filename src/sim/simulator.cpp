@@ -21,8 +21,6 @@ namespace softcontact {
 
 namespace {
 
-constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
-
 // Mean and median edge length over every tet edge of the scene (an edge counts once per
 // tet), from the scene alone: the same on every rank.
 void scene_edge_lengths(const Scene& scene, double& mean, double& median) {
@@ -31,7 +29,7 @@ void scene_edge_lengths(const Scene& scene, double& mean, double& median) {
   double sum = 0;
   for (const SceneObject& o : scene.objects)
     for (std::size_t t = 0; t < o.mesh.num_tets(); ++t)
-      for (const auto& e : kEdges) {
+      for (const auto& e : kTetEdges) {
         const double* a = &o.mesh.points[3 * o.mesh.tets[4 * t + e[0]]];
         const double* b = &o.mesh.points[3 * o.mesh.tets[4 * t + e[1]]];
         len.push_back(std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]));

@@ -20,6 +20,7 @@
 
 #include "cell_bins.hpp"
 #include "softcontact/error.hpp"
+#include "softcontact/mesh.hpp"
 #include "verify_geometry.hpp"
 
 namespace softcontact {
@@ -32,7 +33,6 @@ constexpr double kBarycentricTol = 1e-12;  // closed point-in-tet and crossing p
 constexpr double kSurfaceTol = 1e-9;       // a vertex counts when deeper than this x h
 constexpr int kMaxRing = 6;                // ring search radius in cells before brute force
 constexpr double kDepthAccuracy = 1e-4;    // a crossing's depth is searched to this x h
-constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
 
 // One OpenMP loop for all passes (style.md: pragmas in one helper). Dynamic chunks:
 // vertices near contacts cost far more than the others.
@@ -333,7 +333,7 @@ void prepare_verify_mesh(VerifyMesh& m, const double* rest, const std::string& s
   for (std::size_t t = 0; t < m.num_tets(); ++t) {
     const gid_t* c = &m.tets[4 * t];
     m.rest_sign[t] = verify::orient(P(c[0]), P(c[1]), P(c[2]), P(c[3])) < 0 ? -1 : 1;
-    for (int e = 0; e < 6; ++e) len[6 * t + static_cast<std::size_t>(e)] = std::sqrt(verify::dist2(P(c[kEdges[e][0]]), P(c[kEdges[e][1]])));
+    for (int e = 0; e < 6; ++e) len[6 * t + static_cast<std::size_t>(e)] = std::sqrt(verify::dist2(P(c[kTetEdges[e][0]]), P(c[kTetEdges[e][1]])));
   }
   m.median_edge = 0;
   if (!len.empty()) {
@@ -363,7 +363,7 @@ void prepare_verify_mesh(VerifyMesh& m, const double* rest, const std::string& s
   std::vector<std::pair<gid_t, gid_t>> pairs;
   pairs.reserve(12 * m.num_tets());
   for (std::size_t t = 0; t < m.num_tets(); ++t)
-    for (const auto& e : kEdges) {
+    for (const auto& e : kTetEdges) {
       const gid_t a = m.tets[4 * t + static_cast<std::size_t>(e[0])], b = m.tets[4 * t + static_cast<std::size_t>(e[1])];
       pairs.emplace_back(a, b);
       pairs.emplace_back(b, a);
