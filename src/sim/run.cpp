@@ -23,11 +23,13 @@
 #include "softcontact/fault.hpp"
 #include "softcontact/frame_writer.hpp"
 #include "softcontact/memory.hpp"
+#include "softcontact/mpi_util.hpp"
 #include "softcontact/simulator.hpp"
 #include "softcontact/forces.hpp"
 #include "softcontact/surface.hpp"
 #include "softcontact/verify.hpp"
 #include "softcontact/world.hpp"
+#include "failure_guard.hpp"
 
 namespace softcontact {
 
@@ -143,54 +145,74 @@ private:
 
 const char* signal_name(int s) { return s == SIGTERM ? "SIGTERM" : s == SIGINT ? "SIGINT" : "a signal"; }
 
-double norm3(const Vec3& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
-
-// What the failure guard compares against, from the scene alone (identical on all ranks).
-struct GuardScales {
-  double max_speed = 0;      // [m/s]
-  double release = 0;        // energy the scene can release besides its initial energy [J]
-  std::int64_t movable_tets = 0;
+// When checkpoints are due: every `every` steps, every `seconds` of wall time (the
+// largest rank clock), at the run's end when either is on, and on a stop signal.
+struct CheckpointPolicy {
+  std::int64_t every = 0;
+  double seconds = 0;
+  bool on() const { return every > 0 || seconds > 0; }
+  bool due(std::int64_t step, std::int64_t last_step, double since_last, bool stopping) const {
+    return (every > 0 && step % every == 0) || (seconds > 0 && since_last >= seconds) || (on() && step == last_step) ||
+           stopping;
+  }
 };
 
-GuardScales guard_scales(const Scene& scene) {
-  GuardScales g;
-  double c = 0, v = 0, mass = 0, motion_work = 0;
-  bool motion = false;
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  const double gn = norm3(scene.sim.gravity);
-  for (const SceneObject& o : scene.objects) {
-    const Material& m = scene.materials[static_cast<std::size_t>(o.material)];
-    v = std::max({v, norm3(o.velocity), norm3(o.motion.velocity)});
-    motion = motion || o.motion.moves();
-    for (std::size_t i = 0; i < o.mesh.num_vertices(); ++i) {
-      // Height along gravity: how far anything can fall.
-      double h = 0;
-      for (int d = 0; d < 3; ++d) h += o.mesh.points[3 * i + static_cast<std::size_t>(d)] * (gn > 0 ? scene.sim.gravity[static_cast<std::size_t>(d)] / gn : 0);
-      lo = std::min(lo, h);
-      hi = std::max(hi, h);
+// The output directory: checked, emptied of an earlier run's files (unless a restart
+// continues in it), and the scene copied in. Collective: every rank throws if rank 0
+// could not make it.
+void prepare_output_dir(MPI_Comm comm, int rank, const Scene& scene, const fs::path& dir) {
+  int made = 1;
+  if (rank == 0) {
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    for (const char* f : {kFramesH5, kFramesXdmf, kDiagnosticsCsv, "scene.yaml", "mesh.h5"}) fs::remove(dir / f, ec);
+    fs::remove_all(dir / "checkpoints", ec);
+    made = fs::is_directory(dir) ? 1 : 0;
+    if (made) {
+      std::ofstream copy(dir / "scene.yaml", std::ios::binary | std::ios::trunc);
+      copy << scene.text;
     }
-    if (o.kinematic) continue;
-    c = std::max(c, m.wave_speed());
-    const double volume = tet_volume_sum(o.mesh);
-    mass += m.density * volume;
-    motion_work += m.young * volume;
-    g.movable_tets += static_cast<std::int64_t>(o.mesh.num_tets());
   }
-  const double height = hi > lo ? hi - lo : 0;
-  g.max_speed = scene.sim.max_speed > 0 ? scene.sim.max_speed
-                                        : 10 * std::max({c, v, std::sqrt(2 * gn * height)});
-  // Falling the scene's height, moving at the fastest given speed and, when anchors are
-  // driven, the work of straining every movable object fully.
-  g.release = mass * gn * height + mass * v * v + (motion ? motion_work : 0);
-  return g;
+  MPI_Bcast(&made, 1, MPI_INT, 0, comm);
+  if (!made) throw CollectiveFailure("cannot create the output directory '" + scene.sim.output_dir + "'");
 }
 
-double total_energy(const StepDiagnostics& d) { return d.kinetic_energy + d.elastic_energy + d.potential_energy; }
-
-std::string format_time(double t) {
-  std::ostringstream s;
-  s << std::setprecision(6) << t;
-  return s.str();
+// Rank 0, after a run with --verify-every: the maxima of the in-run checks on the log,
+// and verify_steps.json in the output directory.
+void report_in_run_checks(const Scene& scene, const VerifyMaxima& verify_max, std::int64_t verify_every,
+                          std::int64_t first, std::int64_t last, const fs::path& dir, const std::string& json_path,
+                          std::ostream& log) {
+  const InsideStats& w = verify_max.deepest.surface;
+  auto name = [&](std::int32_t o) { return scene.objects[static_cast<std::size_t>(o)].name; };
+  std::ostringstream line;
+  line << std::setprecision(4) << "verify (every " << verify_every << " steps, " << verify_max.checks
+       << " checks): deepest surface vertex " << verify_max.surface_depth.value << " median edges";
+  if (w.vertex >= 0)
+    line << " (step " << verify_max.surface_depth.step << ": vertex " << w.vertex << " of " << name(w.object)
+         << " in " << name(w.in_object) << ")";
+  line << ", at most " << verify_max.surface_count.value << " inside; checks deeper than 0.005 / 0.01 / 0.02: "
+       << verify_max.checks_deeper_than(0.005) << " / " << verify_max.checks_deeper_than(0.01) << " / "
+       << verify_max.checks_deeper_than(0.02) << " (median " << verify_max.surface_depth_quantile(0.5)
+       << "); vertex-checks deeper than 0.005: " << verify_max.deep_by_record[kNoRecord] << " with no record, "
+       << verify_max.deep_by_record[kCapped] << " capped by the separation speed, "
+       << verify_max.deep_by_record[kUnderClosed] << " closed < 90 %, " << verify_max.deep_by_record[kClosed]
+       << " closed along d; interior vertices "
+       << verify_max.interior_depth.value << "; in their own body " << verify_max.self_depth.value
+       << " (at most " << verify_max.self_count.value << "), edges through their own surface "
+       << verify_max.self_crossing_depth.value << "; crossings at most " << verify_max.crossings.value << " ("
+       << verify_max.crossings_without_inside_vertex.value << " with no vertex inside), deepest "
+       << verify_max.crossing_depth.value << "; inverted tets at most " << verify_max.inverted.value
+       << "; speed at most " << verify_max.speed_ratio.value << " x free fall";
+  if (verify_max.fastest_vertex >= 0)
+    line << " (step " << verify_max.max_speed.step << ": vertex " << verify_max.fastest_vertex << ")";
+  line << "\n";
+  log << line.str();
+  std::ostringstream js;
+  js << "{\"every\": " << verify_every << ", \"first_step\": " << first << ", \"last_step\": " << last
+     << ", \"maxima\": " << to_json(verify_max) << "}\n";
+  std::ofstream json(dir / "verify_steps.json", std::ios::trunc);
+  json << js.str();
+  if (!json.flush()) throw RuntimeFailure("cannot write '" + json_path + "'");
 }
 
 }  // namespace
@@ -216,15 +238,12 @@ Scene load_restart(MPI_Comm comm, const std::string& path, RestartPoint& restart
 
 RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, std::ostream& log,
                      const RestartPoint* restart) {
-  int rank = 0, nranks = 1;
-  MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &nranks);
+  const int rank = comm_rank(comm), nranks = comm_size(comm);
   const Simulation& sim = scene.sim;
   const std::int64_t nsteps = total_steps(sim);
   const std::int64_t every = steps_between_frames(sim);
-  const std::int64_t ckpt_every = opt.checkpoint_every ? *opt.checkpoint_every : sim.checkpoint_every;
-  const double ckpt_seconds = 60 * (opt.checkpoint_minutes ? *opt.checkpoint_minutes : sim.checkpoint_minutes);
-  const bool checkpoints = ckpt_every > 0 || ckpt_seconds > 0;
+  const CheckpointPolicy ckpt{opt.checkpoint_every ? *opt.checkpoint_every : sim.checkpoint_every,
+                              60 * (opt.checkpoint_minutes ? *opt.checkpoint_minutes : sim.checkpoint_minutes)};
   const std::int64_t first = restart ? restart->info.step : 0;
   if (first > nsteps)
     throw InputError(restart->path, 0,
@@ -259,20 +278,7 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
   summary.h5 = (shown / kFramesH5).string();
   summary.xdmf = (shown / kFramesXdmf).string();
   summary.csv = (shown / kDiagnosticsCsv).string();
-  int made = 1;
-  if (rank == 0 && !continuing) {
-    std::error_code ec;
-    fs::create_directories(dir, ec);
-    for (const char* f : {kFramesH5, kFramesXdmf, kDiagnosticsCsv, "scene.yaml", "mesh.h5"}) fs::remove(dir / f, ec);
-    fs::remove_all(dir / "checkpoints", ec);
-    made = fs::is_directory(dir) ? 1 : 0;
-    if (made) {
-      std::ofstream copy(dir / "scene.yaml", std::ios::binary | std::ios::trunc);
-      copy << scene.text;
-    }
-  }
-  MPI_Bcast(&made, 1, MPI_INT, 0, comm);
-  if (!made) throw CollectiveFailure("cannot create the output directory '" + sim.output_dir + "'");
+  if (!continuing) prepare_output_dir(comm, rank, scene, dir);
 
   World& world = simulator.world();
   std::unique_ptr<FrameWriter> writer =
@@ -284,37 +290,12 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     else csv.open(summary.csv);
   }
 
-  const GuardScales guard = guard_scales(scene);
-  double energy0 = restart ? restart->info.energy0 : 0, release = restart ? restart->info.energy_scale : 0;
-  bool have_energy = restart != nullptr;
-  std::int64_t step = first;
-  std::string last_checkpoint = continuing ? restart->path : "";
-  std::int64_t last_checkpoint_step = continuing ? first : -1;
-
   // A failure: every rank throws the same message, with where to go on from.
-  // `solver`: an implicit solve did not converge (the advice names its solver options).
-  auto fail = [&](const std::string& what, bool solver = false) {
-    std::ostringstream m;
-    m << "numerical failure at step " << step << " (t = " << format_time(simulator.time()) << " s): " << what
-      << (solver ? ".\n  Try a smaller dt: now " : ".\n  The run has become unstable. Try a smaller dt: now ") << sim.dt
-      << " s";
-    const StableStep stable = stable_step(scene);
-    if (std::isfinite(stable.dt)) {
-      m << "; the stable explicit limit of this scene is " << stable.dt << " s";
-      if (stable.damped())
-        m << " (with the Rayleigh damping of object '" << scene.objects[static_cast<std::size_t>(stable.object)].name
-          << "')";
-      m << " ('dt: auto' takes " << sim.dt_safety << " of it)";
-    }
-    if (sim.integrator != IntegratorKind::implicit_euler) m << ", or the implicit_euler integrator";
-    if (solver)
-      m << "; or give the solver more room: PETSC_OPTIONS=\"-implicit_ksp_max_it N -implicit_ksp_rtol R\" "
-           "(defaults 10000 and 1e-10), or another preconditioner (-implicit_pc_type jacobi)";
-    m << ".\n  Frames up to step " << writer->last_step() << " are in " << dir.string() << "; ";
-    if (last_checkpoint.empty()) m << "no checkpoint was written (simulation.checkpoint, --checkpoint-every).";
-    else m << "the last good checkpoint is " << last_checkpoint << " (step " << last_checkpoint_step << ").";
-    throw NumericalFailure(m.str());
-  };
+  FailureGuard guard(scene, dir.string(), restart != nullptr, restart ? restart->info.energy0 : 0,
+                     restart ? restart->info.energy_scale : 0);
+  guard.watch_frames(writer.get());
+  if (continuing) guard.checkpoint_written(restart->path, first);
+  std::int64_t step = first;
 
   // In-run checks (--verify-every N): the check of softcontact verify after every N-th
   // step, kept as running maxima; a frame at the same step takes its residual from it.
@@ -328,6 +309,7 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     verify_max.add(checked);
   };
 
+  // A frame, its diagnostics row, and the guard's checks on them.
   auto record = [&] {
     const double t0 = now();
     StepDiagnostics d;
@@ -340,46 +322,28 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     acc.output += now() - t0;
     d.seconds = steps > 0 ? acc.scaled(1.0 / static_cast<double>(steps)) : acc;
     if (rank == 0) csv.write(d);
-    // The guard's energy and inversion checks ride on the frame's reductions (the frame
-    // is written first: it shows the state that failed).
-    if (!have_energy) {
-      energy0 = total_energy(d);
-      release = d.kinetic_energy + d.elastic_energy + guard.release;
-      have_energy = true;
-    }
-    const double grown = total_energy(d) - energy0;
-    if (!std::isfinite(total_energy(d)) || (release > 0 && grown > 10 * release)) {
-      std::ostringstream w;
-      w << std::setprecision(4) << "the total energy grew by " << grown << " J, more than 10 times the " << release
-        << " J the scene can release; " << simulator.locate_energy();
-      fail(w.str());
-    }
-    if (static_cast<double>(d.inverted_elements) > sim.max_inverted_fraction * static_cast<double>(guard.movable_tets)) {
-      const std::string where = simulator.check_inversions(sim.max_inverted_fraction);
-      if (!where.empty()) fail(where);
-    }
+    guard.check_frame(step, d, simulator);
   };
 
   auto write_ckpt = [&] {
     // Never checkpoint a state the guard would reject.
     const std::string bad = simulator.check_inversions(sim.max_inverted_fraction);
-    if (!bad.empty()) fail(bad);
+    if (!bad.empty()) guard.fail(step, simulator.time(), bad);
     const double t0 = now();
     CheckpointInfo info;
     info.steps = nsteps;
     info.output_every = every;
     info.frames = writer->frames_written();
     info.fingerprint = scene_fingerprint(scene);
-    info.energy0 = energy0;
-    info.energy_scale = release;
+    info.energy0 = guard.energy0();
+    info.energy_scale = guard.energy_scale();
     info.scene_path = fs::absolute(scene.path).lexically_normal().string();
     info.scene_text = scene.text;
     info.output_dir = dir.string();
     const std::string path = checkpoint_path(dir.string(), step);
     write_checkpoint(comm, path, simulator, info);
     if (rank == 0) prune_checkpoints(dir.string(), sim.checkpoint_keep);
-    last_checkpoint = path;
-    last_checkpoint_step = step;
+    guard.checkpoint_written(path, step);
     if (rank == 0 && !opt.quiet)
       log << "checkpoint: " << path << " (step " << step << ", " << std::setprecision(3) << now() - t0 << " s)\n"
           << std::flush;
@@ -404,14 +368,13 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     if (step % every == 0 || step == nsteps) record();
     // One reduction a step: a stop signal on any rank, the health of every rank's
     // vertices and implicit solves, and the wall time since the last checkpoint (rank clocks differ).
-    double flags[3] = {static_cast<double>(g_signal), static_cast<double>(simulator.local_health(guard.max_speed)),
+    double flags[3] = {static_cast<double>(g_signal), static_cast<double>(simulator.local_health(guard.max_speed())),
                        now() - since_checkpoint};
     MPI_Allreduce(MPI_IN_PLACE, flags, 3, MPI_DOUBLE, MPI_MAX, comm);
-    if (flags[1] > 0) fail(simulator.diagnose(static_cast<int>(flags[1]), guard.max_speed), flags[1] >= 3);
+    if (flags[1] > 0)
+      guard.fail(step, simulator.time(), simulator.diagnose(static_cast<int>(flags[1]), guard.max_speed()), flags[1] >= 3);
     stop_signal = static_cast<int>(flags[0]);
-    const bool due = (ckpt_every > 0 && step % ckpt_every == 0) || (ckpt_seconds > 0 && flags[2] >= ckpt_seconds) ||
-                     (checkpoints && step == nsteps) || stop_signal != 0;
-    if (due) {
+    if (ckpt.due(step, nsteps, flags[2], stop_signal != 0)) {
       write_ckpt();
       since_checkpoint = now();
     }
@@ -421,37 +384,7 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
   writer->close();
   if (verify_every > 0 && rank == 0) {
     summary.verify_json = (shown / "verify_steps.json").string();
-    const InsideStats& w = verify_max.deepest.surface;
-    auto name = [&](std::int32_t o) { return scene.objects[static_cast<std::size_t>(o)].name; };
-    std::ostringstream line;
-    line << std::setprecision(4) << "verify (every " << verify_every << " steps, " << verify_max.checks
-         << " checks): deepest surface vertex " << verify_max.surface_depth.value << " median edges";
-    if (w.vertex >= 0)
-      line << " (step " << verify_max.surface_depth.step << ": vertex " << w.vertex << " of " << name(w.object)
-           << " in " << name(w.in_object) << ")";
-    line << ", at most " << verify_max.surface_count.value << " inside; checks deeper than 0.005 / 0.01 / 0.02: "
-         << verify_max.checks_deeper_than(0.005) << " / " << verify_max.checks_deeper_than(0.01) << " / "
-         << verify_max.checks_deeper_than(0.02) << " (median " << verify_max.surface_depth_quantile(0.5)
-         << "); vertex-checks deeper than 0.005: " << verify_max.deep_by_record[kNoRecord] << " with no record, "
-         << verify_max.deep_by_record[kCapped] << " capped by the separation speed, "
-         << verify_max.deep_by_record[kUnderClosed] << " closed < 90 %, " << verify_max.deep_by_record[kClosed]
-         << " closed along d; interior vertices "
-         << verify_max.interior_depth.value << "; in their own body " << verify_max.self_depth.value
-         << " (at most " << verify_max.self_count.value << "), edges through their own surface "
-         << verify_max.self_crossing_depth.value << "; crossings at most " << verify_max.crossings.value << " ("
-         << verify_max.crossings_without_inside_vertex.value << " with no vertex inside), deepest "
-         << verify_max.crossing_depth.value << "; inverted tets at most " << verify_max.inverted.value
-         << "; speed at most " << verify_max.speed_ratio.value << " x free fall";
-    if (verify_max.fastest_vertex >= 0)
-      line << " (step " << verify_max.max_speed.step << ": vertex " << verify_max.fastest_vertex << ")";
-    line << "\n";
-    log << line.str();
-    std::ostringstream js;
-    js << "{\"every\": " << verify_every << ", \"first_step\": " << first << ", \"last_step\": " << step
-       << ", \"maxima\": " << to_json(verify_max) << "}\n";
-    std::ofstream json(dir / "verify_steps.json", std::ios::trunc);
-    json << js.str();
-    if (!json.flush()) throw RuntimeFailure("cannot write '" + summary.verify_json + "'");
+    report_in_run_checks(scene, verify_max, verify_every, first, step, dir, summary.verify_json, log);
   }
   summary.peak_rss = peak_rss_bytes();
   MPI_Allreduce(MPI_IN_PLACE, &summary.peak_rss, 1, MPI_DOUBLE, MPI_MAX, comm);
@@ -459,7 +392,7 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
   summary.sim_time = simulator.time();
   summary.wall_seconds = now() - wall0;
   summary.frames = writer->frames_written();
-  summary.last_checkpoint = last_checkpoint;
+  summary.last_checkpoint = guard.last_checkpoint();
   summary.ghost_rebuilds = simulator.ghost_rebuilds() - rebuilds0;
   summary.repartitions = simulator.repartitions() - repartitions0;
   if (stop_signal != 0) summary.stopped_by = signal_name(stop_signal);
