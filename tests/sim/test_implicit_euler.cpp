@@ -1,4 +1,4 @@
-// Implicit Euler (src/sim/implicit_euler.cpp): exact free fall, agreement with position
+// Implicit Euler (src/integrate/implicit_euler.cpp): exact free fall, agreement with position
 // Verlet at small steps, first-order convergence, stability far above the explicit limit.
 #include <gtest/gtest.h>
 #include <petscsys.h>
