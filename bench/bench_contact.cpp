@@ -67,7 +67,7 @@ Fixture make_fixture(int n_collisions) {
 
 void BM_ContactResponse(benchmark::State& state) {
   Fixture f = make_fixture(static_cast<int>(state.range(0)));
-  ContactSolver solver(f.scene, f.world);
+  ContactResponse solver(f.scene, f.world);
   ContactStats stats;
   // Positions drift by the (tiny) corrections from one iteration to the next; the work
   // per call does not depend on them.

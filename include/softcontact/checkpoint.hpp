@@ -38,7 +38,7 @@ struct CheckpointInfo {
   std::int64_t output_every = 1;  ///< steps between frames
   std::int64_t frames = 0;        ///< frames written up to this step
   std::int64_t ranks = 1;         ///< ranks of the run that wrote it
-  std::int64_t anchor_step = 0;   ///< ContactSolver's step counter
+  std::int64_t anchor_step = 0;   ///< ContactResponse's step counter
   std::int64_t vertices = 0;      ///< global vertex count
   std::uint64_t fingerprint = 0;  ///< scene_fingerprint() of the scene
   double energy0 = 0;             ///< total energy at the start of the run [J] (failure guard)

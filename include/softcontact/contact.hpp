@@ -32,7 +32,7 @@
 // friction sums to zero too. Coulomb's cone becomes |e_i| <= mu_s |d_i| (stick), else e_i
 // is scaled to mu_k |d_i| (slide), |d_i| the dynamic part; a patch (one body's points
 // against one other body) whose summed stopping forces fit in its summed cones sticks as
-// a whole. contact_solver.cpp derives this.
+// a whole. contact_response.cpp derives this.
 //
 // Static friction is anchored: a sticking point keeps the place on the other body where
 // it first stuck (barycentric coordinates in a surface triangle of that body), and e_i
@@ -100,10 +100,10 @@ struct ContactStats {
   std::int64_t closure_local = 0;   ///< ... of them left to the per-collision closed form (ill-conditioned)
 };
 
-class ContactSolver {
+class ContactResponse {
 public:
   /// Friction coefficients per pair of objects come from the scene's materials.
-  ContactSolver(const Scene& scene, const World& world);
+  ContactResponse(const Scene& scene, const World& world);
 
   /// Computes the contact forces of `collisions` at the positions x~ = world.x, corrects
   /// world.x and world.v of movable owned vertices (x_prev, holding x^t, is unchanged).

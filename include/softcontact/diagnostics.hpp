@@ -41,7 +41,7 @@ struct StepDiagnostics {
 /// Kinetic and potential energy and momentum of the owned vertices, summed per object in
 /// vertex order, and (when given) the per-object strain energy and inverted-tet count of
 /// ElasticForces::measure, then summed over objects in object order on rank 0 and
-/// broadcast. With `contact_force` (3 per local vertex, ContactSolver::force) also the
+/// broadcast. With `contact_force` (3 per local vertex, ContactResponse::force) also the
 /// contact force balance |sum F| / sum |F|, summed the same way over every owned vertex,
 /// kinematic ones included, so that it too is bitwise the same on any number of ranks.
 /// Collective.

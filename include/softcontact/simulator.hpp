@@ -5,7 +5,7 @@
 //   x~ <- unconstrained motion                             Verlet / symplectic / implicit Euler
 //   C  <- detect collisions(x~)                            CollisionDetector (spatial hashing)
 //   d  <- penetration vectors(C, x~)                       CollisionDetector (consistent depth)
-//   F  <- contact forces(C, x~, d); x = x~ + dt^2 F / m    ContactSolver
+//   F  <- contact forces(C, x~, d); x = x~ + dt^2 F / m    ContactResponse
 //
 // without any file output, so that tests and benchmarks drive it directly; run_scene()
 // adds frames, diagnostics and the progress line around it.
@@ -105,7 +105,7 @@ public:
   /// Collective, between steps.
   void migrate(const std::vector<int>& partition);
 
-  /// Friction anchors per owned vertex and the contact solver's step counter: the state
+  /// Friction anchors per owned vertex and the contact response's step counter: the state
   /// a checkpoint carries besides positions and velocities.
   std::vector<StictionAnchor>& anchors();
   std::int64_t anchor_step() const;
@@ -178,7 +178,7 @@ private:
   std::unique_ptr<ElasticForces> elastic_;
   std::unique_ptr<ImplicitEuler> implicit_;
   std::unique_ptr<CollisionDetector> detector_;
-  std::unique_ptr<ContactSolver> contact_;
+  std::unique_ptr<ContactResponse> contact_;
   std::vector<double> f_;
   std::vector<Collision> collisions_, residual_;
   std::vector<RecordKey> record_keys_;  // settle_mutual's partners (this rank's and its neighbours')

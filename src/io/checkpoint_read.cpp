@@ -118,7 +118,7 @@ CheckpointInfo read_run_checked(hid_t file, const std::string& path) {
     info.energy_scale = h5::read_attribute<double>(run, "energy_scale", path);
     info.scene_path = h5::read_string_attribute(run, "scene_path", path);
     info.output_dir = h5::read_string_attribute(run, "output_dir", path);
-    // anchor_step >= 0: the contact solver subtracts a grace period from it.
+    // anchor_step >= 0: the contact response subtracts a grace period from it.
     if (info.step < 0 || info.steps < 1 || info.output_every < 1 || info.frames < 0 || info.ranks < 1 ||
         info.anchor_step < 0 || info.vertices < 0 || !(info.dt > 0) || !std::isfinite(info.dt) ||
         !std::isfinite(info.time) || !std::isfinite(info.energy0) || !std::isfinite(info.energy_scale) ||

@@ -155,13 +155,13 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
 
 // Everything that depends on which objects this rank owns: forces and the implicit
 // solver (their rest shapes from world_.x, which must hold the scene's initial
-// positions here) and the contact solver.
+// positions here) and the contact response.
 void Simulator::build_components() {
   elastic_ = std::make_unique<ElasticForces>(scene_, world_);
   implicit_.reset();
   if (scene_.sim.integrator == IntegratorKind::implicit_euler)
     implicit_ = std::make_unique<ImplicitEuler>(scene_, world_, *elastic_);
-  contact_ = std::make_unique<ContactSolver>(scene_, world_);
+  contact_ = std::make_unique<ContactResponse>(scene_, world_);
 }
 
 // Every object's box at the current positions, on every rank (collective). Every object

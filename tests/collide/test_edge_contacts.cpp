@@ -224,7 +224,7 @@ TEST(EdgeContacts, ResponseClosesTheCrossingOnce) {
   det.detect(w, nullptr, c, st);
   ASSERT_EQ(c.size(), 2u);
   const Collision upper = c[0].object == 1 ? c[0] : c[1];
-  ContactSolver solver(s2, w);
+  ContactResponse solver(s2, w);
   ContactStats cs;
   solver.respond(w, c, 1e-3, cs, nullptr);
   EXPECT_NEAR(ridge_point_z(w, upper), kRidge, 1e-12);
@@ -388,7 +388,7 @@ TEST(EdgeContacts, EdgeUnderAVertexMovesOutThroughTheNearestFace) {
 
   Scene s2 = scene;
   s2.sim.separation_speed = 1e3;
-  ContactSolver solver(s2, w);
+  ContactResponse solver(s2, w);
   ContactStats cs;
   solver.respond(w, under, 1e-3, cs, nullptr);
   for (index_t v : {r.point, r.point2}) {  // on the plane x = z / 2

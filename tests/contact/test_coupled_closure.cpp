@@ -53,7 +53,7 @@ std::vector<double> fractions(ContactClosure closure, const std::vector<double>&
   for (const Collision& c : col)  // every contact arrived within the step: all dynamic
     for (int d = 0; d < 3; ++d) w.x_prev[3 * c.point + d] = w.x[3 * c.point + d] + c.depth[d];
   const World w0 = w;
-  ContactSolver solver(closure_scene(closure, objects), w);
+  ContactResponse solver(closure_scene(closure, objects), w);
   ContactStats st;
   solver.respond(w, col, dt, st);
   if (stats) *stats = st;
@@ -271,7 +271,7 @@ TEST(CoupledClosure, PullingRowInALargeGroupLeavesTheReducedSystem) {
     if (q != k) EXPECT_NEAR(x[static_cast<std::size_t>(q)], ref[static_cast<std::size_t>(q)], 1e-12 * std::abs(ref[static_cast<std::size_t>(q)])) << q;
 }
 
-// The causes the in-run check reports for a vertex left inside (ContactSolver::record_status,
+// The causes the in-run check reports for a vertex left inside (ContactResponse::record_status,
 // verify.hpp RecordStatus), each against the gap measured from the positions: an
 // isolated fresh contact is closed; the squeezed point's two records under the shares
 // close less than 90 % (its deeper record decides); an old overlap deeper than the
@@ -287,7 +287,7 @@ TEST(CoupledClosure, RecordStatusNamesWhyAGapWasLeft) {
         for (int d = 0; d < 3; ++d) w.x_prev[3 * c.point + d] = w.x[3 * c.point + d] + c.depth[d];
     Scene s = closure_scene(ContactClosure::local, 3);
     s.sim.separation_speed = separation_speed;
-    ContactSolver solver(s, w);
+    ContactResponse solver(s, w);
     ContactStats st;
     const World w0 = w;
     solver.respond(w, col, dt, st);

@@ -66,14 +66,14 @@ using test::closed_along;  // the gap closed, as a fraction of |d| (loose_world.
 // One collision against a free triangle: the force pair of docs/contact.md, lambda =
 // 1 / (dt^2 (1/m_i + sum_j w_j^2 / m_j)), f_i = lambda d, f_j = -w_j lambda d; the gap
 // closes exactly and the forces sum to zero.
-TEST(ContactSolver, SingleCollisionClosesExactlyAndSumsToZero) {
+TEST(ContactResponse, SingleCollisionClosesExactlyAndSumsToZero) {
   const std::vector<double> m = {2.0, 1.0, 3.0, 0.5};
   World w = toy_world(m, {false, false, false, false});
   const std::array<double, 3> om = {0.2, 0.3, 0.5}, d = {0.001, -0.002, 0.01};
   arrived(w, 0, d);
   const World w0 = w;
   const Collision c = make(0, {1, 2, 3}, om, d);
-  ContactSolver solver(two_materials(), w);
+  ContactResponse solver(two_materials(), w);
   ContactStats st;
   solver.respond(w, {c}, dt, st);
   double K = 1 / m[0];
@@ -94,7 +94,7 @@ TEST(ContactSolver, SingleCollisionClosesExactlyAndSumsToZero) {
 // fixed, weights at a vertex, an edge or inside the triangle. The paper's eqs (5)-(16)
 // close 57 % (equal masses, weights 1/3), 25 % (fixed point into a soft face) and about
 // 30 % (a point ten times heavier): method.md, "Where eqs (5)-(16) fall short".
-TEST(ContactSolver, EveryIsolatedContactClosesInTheStep) {
+TEST(ContactResponse, EveryIsolatedContactClosesInTheStep) {
   const std::array<double, 3> d = {0.0002, -0.0001, 0.0005};
   for (double mi : {0.1, 1.0, 10.0, 1000.0})
     for (int fixed_side : {0, 1, 2})  // none, the point, the triangle
@@ -103,7 +103,7 @@ TEST(ContactSolver, EveryIsolatedContactClosesInTheStep) {
         World w = toy_world({mi, 1, 2, 0.5}, {fixed_side == 1, fixed_side == 2, fixed_side == 2, fixed_side == 2});
         const World w0 = w;
         const Collision c = make(0, {1, 2, 3}, om, d);
-        ContactSolver solver(two_materials(), w);
+        ContactResponse solver(two_materials(), w);
         ContactStats st;
         solver.respond(w, {c}, dt, st);
         EXPECT_NEAR(closed_along(w0, w, c), 1.0, 1e-12) << mi << " " << fixed_side << " " << om[0];
@@ -111,11 +111,11 @@ TEST(ContactSolver, EveryIsolatedContactClosesInTheStep) {
       }
 }
 
-TEST(ContactSolver, KinematicTriangleTakesTheReactionAndThePointMovesTheWholeDepth) {
+TEST(ContactResponse, KinematicTriangleTakesTheReactionAndThePointMovesTheWholeDepth) {
   World w = toy_world({1.5, 1, 1, 1}, {false, true, true, true});
   const std::array<double, 3> d = {0, 0, 0.004};
   arrived(w, 0, d);
-  ContactSolver solver(two_materials(), w);
+  ContactResponse solver(two_materials(), w);
   ContactStats st;
   solver.respond(w, {make(0, {1, 2, 3}, {0.25, 0.25, 0.5}, d)}, dt, st);
   EXPECT_DOUBLE_EQ(w.x[2], 0.004);
@@ -129,10 +129,10 @@ TEST(ContactSolver, KinematicTriangleTakesTheReactionAndThePointMovesTheWholeDep
   EXPECT_LT(st.force_balance, 1e-15);
 }
 
-TEST(ContactSolver, KinematicPointMovesTheTriangle) {
+TEST(ContactResponse, KinematicPointMovesTheTriangle) {
   World w = toy_world({1, 2, 2, 2}, {true, false, false, false});
   const std::array<double, 3> d = {0.003, 0, 0};
-  ContactSolver solver(two_materials(), w);
+  ContactResponse solver(two_materials(), w);
   ContactStats st;
   solver.respond(w, {make(0, {1, 2, 3}, {1.0, 0.0, 0.0}, d)}, dt, st);
   EXPECT_EQ(w.x[0], 0.0);
@@ -146,7 +146,7 @@ TEST(ContactSolver, KinematicPointMovesTheTriangle) {
 // symmetric configuration of two equal cubes pressed together): every vertex is pushed
 // the same way by two collisions (as a point and as a triangle vertex), so each takes
 // half, and the two sides meet in the middle plane instead of crossing.
-TEST(ContactSolver, EqualBodiesMeetInTheMiddle) {
+TEST(ContactResponse, EqualBodiesMeetInTheMiddle) {
   World w = toy_world({1, 1, 1, 1, 1, 1}, {false, false, false, false, false, false});
   const double h = 0.002;
   for (int v = 0; v < 3; ++v) w.x[3 * v + 2] = -h / 2;
@@ -159,7 +159,7 @@ TEST(ContactSolver, EqualBodiesMeetInTheMiddle) {
     c.other_object = 0;
     col.push_back(c);
   }
-  ContactSolver solver(two_materials(), w);
+  ContactResponse solver(two_materials(), w);
   ContactStats st;
   solver.respond(w, col, dt, st);
   for (int v = 0; v < 6; ++v) EXPECT_NEAR(w.x[3 * v + 2], 0.0, 1e-17) << v;
@@ -170,13 +170,13 @@ TEST(ContactSolver, EqualBodiesMeetInTheMiddle) {
 // touching the face with weights 1/3: every face vertex is in three collisions that push
 // it the same way. Moved once per collision, the face would go 3/4 h and the points 3/4 h
 // (1.5 h in all); shared, every gap closes exactly (the points h/2 up, the face h/2 down).
-TEST(ContactSolver, SharedFaceVertexIsNotMovedOncePerCollision) {
+TEST(ContactResponse, SharedFaceVertexIsNotMovedOncePerCollision) {
   World w = toy_world({1, 1, 1, 1, 1, 1}, std::vector<bool>(6, false));
   const World w0 = w;
   const double h = 0.001;
   std::vector<Collision> col;
   for (int v = 0; v < 3; ++v) col.push_back(make(v, {3, 4, 5}, {1.0 / 3, 1.0 / 3, 1.0 / 3}, {0, 0, h}));
-  ContactSolver solver(two_materials(), w);
+  ContactResponse solver(two_materials(), w);
   ContactStats st;
   solver.respond(w, col, dt, st);
   for (const Collision& c : col) EXPECT_NEAR(closed_along(w0, w, c), 1.0, 1e-12);
@@ -188,7 +188,7 @@ TEST(ContactSolver, SharedFaceVertexIsNotMovedOncePerCollision) {
 // A point in a corner: against a fixed floor (d along z) and a fixed wall (d along x)
 // it must move both depths (orthogonal pushes are not shared); against two fixed floor
 // tiles side by side (both d along z) it must move the depth once, not twice.
-TEST(ContactSolver, PointInTwoCollisionsMovesEachDepthOnce) {
+TEST(ContactResponse, PointInTwoCollisionsMovesEachDepthOnce) {
   Scene scene = two_materials();
   scene.objects.resize(3);
   scene.objects[2].material = 1;
@@ -200,7 +200,7 @@ TEST(ContactSolver, PointInTwoCollisionsMovesEachDepthOnce) {
                                                                                 : std::array<double, 3>{0, 0, 0.0004});
     other.other_object = 2;
     other.triangle_gid = 1;
-    ContactSolver solver(scene, w);
+    ContactResponse solver(scene, w);
     ContactStats st;
     solver.respond(w, {floor, other}, dt, st);
     EXPECT_NEAR(w.x[2], 0.0004, 1e-15) << corner;
@@ -214,7 +214,7 @@ TEST(ContactSolver, PointInTwoCollisionsMovesEachDepthOnce) {
 // separation speed times dt per step (set to 1 m/s here; 5 m/s by default): x moves 1 mm, x^t with it, and no
 // velocity is added (not 5 m/s in one step). A fresh contact of the same depth, reached
 // within the step, is closed in full and its approach velocity is stopped.
-TEST(ContactSolver, OldOverlapSeparatesAtTheSeparationSpeedWithoutVelocity) {
+TEST(ContactResponse, OldOverlapSeparatesAtTheSeparationSpeedWithoutVelocity) {
   Scene scene = two_materials();
   scene.sim.separation_speed = 1.0;
   for (bool fresh : {false, true}) {
@@ -224,7 +224,7 @@ TEST(ContactSolver, OldOverlapSeparatesAtTheSeparationSpeedWithoutVelocity) {
       w.v[2] = -5.0;
     }
     const double xprev0 = w.x_prev[2];
-    ContactSolver solver(scene, w);
+    ContactResponse solver(scene, w);
     ContactStats st;
     solver.respond(w, {make(0, {1, 2, 3}, {1.0 / 3, 1.0 / 3, 1.0 / 3}, {0, 0, 0.005})}, dt, st);
     EXPECT_NEAR(w.x[2], fresh ? 0.005 : 1.0 * dt, 1e-15) << fresh;
@@ -237,13 +237,13 @@ TEST(ContactSolver, OldOverlapSeparatesAtTheSeparationSpeedWithoutVelocity) {
 
 // Mass ratios 1, 10, 1000: momentum conserved to 1e-10 relative; the lighter body takes
 // the larger share of the separation (1/m_i over 1/m_i + sum_j w_j^2 / m_j).
-TEST(ContactSolver, MassRatiosConserveMomentumAndTheLighterBodyMovesMore) {
+TEST(ContactResponse, MassRatiosConserveMomentumAndTheLighterBodyMovesMore) {
   for (double ratio : {1.0, 10.0, 1000.0}) {
     // point 0 (mass 1) against a triangle of three vertices of mass `ratio`
     World w = toy_world({1, ratio, ratio, ratio}, {false, false, false, false});
     const World w0 = w;
     const std::array<double, 3> d = {0, 0, 0.001}, om = {1.0 / 3, 1.0 / 3, 1.0 / 3};
-    ContactSolver solver(two_materials(), w);
+    ContactResponse solver(two_materials(), w);
     ContactStats st;
     solver.respond(w, {make(0, {1, 2, 3}, om, d)}, dt, st);
     const double K = 1 + 3 * (1.0 / 9) / ratio;
@@ -260,7 +260,7 @@ TEST(ContactSolver, MassRatiosConserveMomentumAndTheLighterBodyMovesMore) {
 
 // Coulomb friction against a fixed triangle: a slow tangential motion is stopped
 // exactly (static), a fast one is slowed by mu_k f_n dt / m (kinetic).
-TEST(ContactSolver, FrictionSticksBelowTheConeAndSlidesAbove) {
+TEST(ContactResponse, FrictionSticksBelowTheConeAndSlidesAbove) {
   const double m = 2.0, depth = 1e-5;  // normal force m depth / dt^2 = 20 N
   const double fn = m * depth / (dt * dt);
   for (double speed : {0.004, 0.5}) {
@@ -268,7 +268,7 @@ TEST(ContactSolver, FrictionSticksBelowTheConeAndSlidesAbove) {
     // x~ - x^t: tangential speed * dt along x, and the penetration along -z.
     w.x[0] = speed * dt;
     w.x[2] = -depth;
-    ContactSolver solver(two_materials(0.6, 0.4), w);
+    ContactResponse solver(two_materials(0.6, 0.4), w);
     ContactStats st;
     solver.respond(w, {make(0, {1, 2, 3}, {0.2, 0.3, 0.5}, {0, 0, depth})}, dt, st);
     EXPECT_NEAR(w.x[2], 0.0, 1e-20);  // normal correction onto the surface
@@ -291,12 +291,12 @@ TEST(ContactSolver, FrictionSticksBelowTheConeAndSlidesAbove) {
 // re-anchors where it ends; after more than kAnchorGrace steps without contact the
 // anchor is forgotten and an offset stays. Positions to 1e-16 m (1e-11 of the offsets:
 // rounding of the dt^2 scalings).
-TEST(ContactSolver, StictionPullsLeftoverSlipBackToTheAnchor) {
+TEST(ContactResponse, StictionPullsLeftoverSlipBackToTheAnchor) {
   const double m = 2.0, depth = 1e-5;
   World w = toy_world({m, 1, 1, 1}, {false, true, true, true});
   const double tri[9] = {-1, -1, 0, 1, -1, 0, 0, 1, 0};
   for (int k = 0; k < 9; ++k) w.x[3 + k] = w.x_prev[3 + k] = tri[k];
-  ContactSolver solver(two_materials(0.6, 0.4), w);
+  ContactResponse solver(two_materials(0.6, 0.4), w);
   ContactStats st;
   const Collision c = make(0, {1, 2, 3}, {0.25, 0.25, 0.5}, {0, 0, depth});
   // Starts the step at (x0, 0, 0) and arrives at (x0, 0, -depth): pure penetration.
@@ -321,7 +321,7 @@ TEST(ContactSolver, StictionPullsLeftoverSlipBackToTheAnchor) {
   const double slid_to = w.x[0];
   step(slid_to, true);  // the new anchor is where it slid to: nothing to undo
   EXPECT_NEAR(w.x[0], slid_to, 1e-16);
-  for (int k = 0; k <= ContactSolver::kAnchorGrace; ++k) step(slid_to, false);
+  for (int k = 0; k <= ContactResponse::kAnchorGrace; ++k) step(slid_to, false);
   step(slid_to + 4e-6, true);  // anchor forgotten: the offset stays
   EXPECT_NEAR(w.x[0], slid_to + 4e-6, 1e-16);
   EXPECT_LT(st.force_balance, 1e-15);
@@ -329,7 +329,7 @@ TEST(ContactSolver, StictionPullsLeftoverSlipBackToTheAnchor) {
 
 // Random contact sets: 1 and 2 threads give bitwise the same positions and forces, and
 // the forces always sum to zero.
-TEST(ContactSolver, ThreadCountDoesNotChangeResults) {
+TEST(ContactResponse, ThreadCountDoesNotChangeResults) {
   std::mt19937_64 g(3);
   auto u = [&] { return static_cast<double>(g() >> 11) * 0x1.0p-53; };
   const int n = 400;
@@ -355,7 +355,7 @@ TEST(ContactSolver, ThreadCountDoesNotChangeResults) {
   for (int threads : {1, 2}) {
     omp_set_num_threads(threads);
     World w = base;
-    ContactSolver solver(two_materials(0.5, 0.3), w);
+    ContactResponse solver(two_materials(0.5, 0.3), w);
     ContactStats st;
     solver.respond(w, col, dt, st);
     EXPECT_LT(st.force_balance, 1e-12);
@@ -369,7 +369,7 @@ TEST(ContactSolver, ThreadCountDoesNotChangeResults) {
 
 // Anchors are kept per (point, other body): a point sticking to a floor and a wall at
 // once keeps one on each, instead of alternating between them every step.
-TEST(ContactSolver, PointAgainstTwoBodiesKeepsAnAnchorOnEach) {
+TEST(ContactResponse, PointAgainstTwoBodiesKeepsAnAnchorOnEach) {
   Scene scene = two_materials(0.6, 0.4);
   scene.objects.resize(3);
   scene.objects[2].material = 1;
@@ -382,7 +382,7 @@ TEST(ContactSolver, PointAgainstTwoBodiesKeepsAnAnchorOnEach) {
   Collision wall = make(0, {4, 5, 6}, {1.0 / 3, 1.0 / 3, 1.0 / 3}, {-1e-5, 0, 0});
   wall.other_object = 2;
   wall.triangle_gid = 1;
-  ContactSolver solver(scene, w);
+  ContactResponse solver(scene, w);
   ContactStats st;
   for (int step = 0; step < 3; ++step) {
     solver.respond(w, {floor, wall}, dt, st);

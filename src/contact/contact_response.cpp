@@ -43,7 +43,7 @@ void emit_point_side(const LocalT& L, const double* v, F&& f) {
 }
 }  // namespace
 
-ContactSolver::ContactSolver(const Scene& scene, const World& world)
+ContactResponse::ContactResponse(const Scene& scene, const World& world)
     : friction_(scene.friction), separation_speed_(scene.sim.separation_speed) {
   object_material_.reserve(scene.objects.size());
   for (const SceneObject& o : scene.objects) object_material_.push_back(o.material);
@@ -55,7 +55,7 @@ ContactSolver::ContactSolver(const Scene& scene, const World& world)
   coupled_ = scene.sim.contact_closure == ContactClosure::coupled;
 }
 
-std::int32_t ContactSolver::slot_of_vertex(const World& w, index_t v) {
+std::int32_t ContactResponse::slot_of_vertex(const World& w, index_t v) {
   const auto i = static_cast<std::size_t>(v);
   if (slot_of_[i] < 0) {
     slot_of_[i] = static_cast<std::int32_t>(vertex_of_.size());
@@ -74,7 +74,7 @@ std::int32_t ContactSolver::slot_of_vertex(const World& w, index_t v) {
 
 // Which ghost slots each neighbour owns (our requests), and which of our vertices each
 // neighbour asks for (served): exchanged once per step, with the column sums.
-void ContactSolver::plan_ghosts(const World& w, NeighbourExchange* exchange) {
+void ContactResponse::plan_ghosts(const World& w, NeighbourExchange* exchange) {
   const std::size_t nn = exchange ? exchange->neighbors().size() : 0;
   request_.assign(nn, {});
   served_.assign(nn, {});
@@ -118,7 +118,7 @@ void ContactSolver::plan_ghosts(const World& w, NeighbourExchange* exchange) {
 // (zero before). Owned slots get their complete sums; ghost slots none (reply() fills
 // what is needed).
 template <class Emit, class Target>
-void ContactSolver::reduce(const std::vector<Collision>& col, int dim, Emit&& emit, Target&& target, NeighbourExchange* exchange) {
+void ContactResponse::reduce(const std::vector<Collision>& col, int dim, Emit&& emit, Target&& target, NeighbourExchange* exchange) {
   const std::size_t nn = request_.size();
   remote_.clear();
   if (nn > 0) {
@@ -182,7 +182,7 @@ void ContactSolver::reduce(const std::vector<Collision>& col, int dim, Emit&& em
 // The owners send value(slot) of every vertex a neighbour asked for; the answers land
 // in the neighbour's ghost slots through value(slot) as a destination.
 template <class Value>
-void ContactSolver::reply(int dim, Value&& value, NeighbourExchange* exchange) {
+void ContactResponse::reply(int dim, Value&& value, NeighbourExchange* exchange) {
   const std::size_t nn = request_.size();
   if (nn == 0) return;
   std::vector<std::vector<char>> send(nn);
@@ -213,7 +213,7 @@ void ContactSolver::reply(int dim, Value&& value, NeighbourExchange* exchange) {
 // before the step (bodies that start overlapping, a gap left by an earlier step); it is
 // removed by a position-only correction, which changes no velocity (so it adds no
 // kinetic energy), and at most separation_speed * dt of it per step.
-void ContactSolver::effective_depths(const std::vector<Collision>& col, double dt) {
+void ContactResponse::effective_depths(const std::vector<Collision>& col, double dt) {
   const std::ptrdiff_t nc = static_cast<std::ptrdiff_t>(col.size());
   const double slack = separation_speed_ * dt;
   std::int64_t capped = 0;
@@ -253,7 +253,7 @@ void ContactSolver::effective_depths(const std::vector<Collision>& col, double d
 // a_q / |d_q| a collision closed to a fraction s kept the velocity (1 - s) a_q / dt
 // into the contact step after step while a position-only shift held it in place (a
 // stored velocity that was not the positions' rate, seen as kinetic energy at rest).
-void ContactSolver::dynamic_fractions(const std::vector<Collision>& col) {
+void ContactResponse::dynamic_fractions(const std::vector<Collision>& col) {
   const std::ptrdiff_t nc = static_cast<std::ptrdiff_t>(col.size());
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t q = 0; q < nc; ++q) {
@@ -288,7 +288,7 @@ void ContactSolver::dynamic_fractions(const std::vector<Collision>& col) {
 // collision pushes v in) that lies along this collision's push, never less than its own
 // beta. An isolated collision has sigma = beta and closes exactly; k collisions pushing a
 // vertex the same way split it k ways, so no motion is applied twice.
-std::int64_t ContactSolver::normal_coefficients(const std::vector<Collision>& col, double dt) {
+std::int64_t ContactResponse::normal_coefficients(const std::vector<Collision>& col, double dt) {
   const std::ptrdiff_t nc = static_cast<std::ptrdiff_t>(col.size());
   const double inv_dt2 = 1.0 / (dt * dt);
   std::int64_t fixed_pairs = 0;
@@ -338,7 +338,7 @@ std::int64_t ContactSolver::normal_coefficients(const std::vector<Collision>& co
 // rank list), solved there and the magnitudes sent back: the same matrix and the same
 // arithmetic on any rank count. Friction keeps the per-collision coefficients (fa, faT)
 // for its stopping forces; Coulomb's cone takes the coupled normal force.
-void ContactSolver::coupled_coefficients(const std::vector<Collision>& col, double dt, NeighbourExchange* exchange, ContactStats& stats) {
+void ContactResponse::coupled_coefficients(const std::vector<Collision>& col, double dt, NeighbourExchange* exchange, ContactStats& stats) {
   const std::size_t nc = col.size();
   std::vector<contact::ClosureRow> rows(nc);
   for (std::size_t q = 0; q < nc; ++q) {
@@ -416,7 +416,7 @@ void ContactSolver::coupled_coefficients(const std::vector<Collision>& col, doub
   }
 }
 
-void ContactSolver::friction_coefficients(const std::vector<Collision>& col, ContactStats& stats) {
+void ContactResponse::friction_coefficients(const std::vector<Collision>& col, ContactStats& stats) {
   // Coulomb friction, decoupled from the normal response (the paper's Sec. 3.4) and
   // computed with the same closed form. After the normal correction, the relative
   // tangential motion of i against the point of T_i it touches within this step is
@@ -526,7 +526,7 @@ void ContactSolver::friction_coefficients(const std::vector<Collision>& col, Con
   stats.sliding = sliding;
 }
 
-void ContactSolver::respond(World& w, const std::vector<Collision>& col, double dt, ContactStats& stats, NeighbourExchange* exchange) {
+void ContactResponse::respond(World& w, const std::vector<Collision>& col, double dt, ContactStats& stats, NeighbourExchange* exchange) {
   for (index_t v : vertex_of_) slot_of_[static_cast<std::size_t>(v)] = -1;
   vertex_of_.clear();
   slots_.clear();
@@ -682,7 +682,7 @@ void ContactSolver::respond(World& w, const std::vector<Collision>& col, double 
 // The in-run check's classes (RecordStatus, verify.hpp): capped when the applied
 // depth is less than |d_i| (the separation speed), under-closed when the corrections of
 // all collisions close less than 90 % of the applied depth, else closed.
-void ContactSolver::record_status(const std::vector<Collision>& col, std::size_t n_local,
+void ContactResponse::record_status(const std::vector<Collision>& col, std::size_t n_local,
                                   std::vector<std::int8_t>& status) const {
   status.assign(n_local, kNoRecord);
   std::vector<double> deepest(n_local, -1);
@@ -706,7 +706,7 @@ void ContactSolver::record_status(const std::vector<Collision>& col, std::size_t
 // (barycentric coordinates, not clamped: the foot may lie just outside T_i). One anchor
 // per (point, other body), so a point against two bodies keeps both.
 // The triangle's final positions: with ghosts, after the halo has refreshed them.
-void ContactSolver::update_anchors(const World& w, const std::vector<Collision>& col) {
+void ContactResponse::update_anchors(const World& w, const std::vector<Collision>& col) {
   if (local_.size() < col.size()) return;  // respond() has not seen these collisions
   for (std::size_t q = 0; q < col.size(); ++q) {
     const Collision& c = col[q];
@@ -740,7 +740,7 @@ void ContactSolver::update_anchors(const World& w, const std::vector<Collision>&
   }
 }
 
-void ContactSolver::materialize() {
+void ContactResponse::materialize() {
   if (materialized_current_) return;
   for (index_t v : materialized_)
     for (int d = 0; d < 3; ++d) force_[3 * v + d] = penetration_[3 * v + d] = 0;
@@ -756,12 +756,12 @@ void ContactSolver::materialize() {
   materialized_current_ = true;
 }
 
-const std::vector<double>& ContactSolver::force() {
+const std::vector<double>& ContactResponse::force() {
   materialize();
   return force_;
 }
 
-const std::vector<double>& ContactSolver::penetration() {
+const std::vector<double>& ContactResponse::penetration() {
   materialize();
   return penetration_;
 }
