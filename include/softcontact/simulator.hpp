@@ -28,6 +28,7 @@ namespace softcontact {
 
 class ElasticForces;
 class ImplicitEuler;
+class UnconstrainedMotion;
 class Halo;
 
 /// When a run repartitions its objects (docs/architecture.md, "Migration").
@@ -152,7 +153,6 @@ private:
   void contact_response();
   void refresh_final_ghosts();
 
-  void compute_forces();
   void build_components();
   void rebuild_ghosts(bool force);
   void make_detector();
@@ -175,8 +175,7 @@ private:
   std::int64_t repartitions_ = 0, ghost_rebuilds_ = 0, cross_collisions_ = 0;
   std::int64_t halo_bytes_before_ = 0;  // of halos since replaced
   double work_seconds_ = 0;          // forces, detection and depth seconds since the last rebalance check
-  std::unique_ptr<ElasticForces> elastic_;
-  std::unique_ptr<ImplicitEuler> implicit_;
+  std::unique_ptr<UnconstrainedMotion> motion_;  // forces and the integrator (motion.hpp)
   std::unique_ptr<CollisionDetector> detector_;
   std::unique_ptr<ContactResponse> contact_;
   std::vector<double> f_;

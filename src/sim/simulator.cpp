@@ -15,6 +15,7 @@
 #include "softcontact/halo.hpp"
 #include "softcontact/mpi_util.hpp"
 #include "softcontact/implicit_euler.hpp"
+#include "softcontact/motion.hpp"
 #include "softcontact/integrator.hpp"
 
 namespace softcontact {
@@ -148,8 +149,8 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
     MPI_Allreduce(MPI_IN_PLACE, &initial_overlaps_, 1, MPI_INT64_T, MPI_SUM, comm_);
     MPI_Allreduce(MPI_IN_PLACE, &initial_overlap_depth_, 1, MPI_DOUBLE, MPI_MAX, comm_);
   }
-  compute_forces();
-  start_integration(world_, scene.sim, f_);
+  motion_->forces(world_, f_);
+  motion_->start(world_, f_);
   if (halo_) halo_->update(world_.x_prev.data());
 }
 
@@ -157,10 +158,8 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
 // solver (their rest shapes from world_.x, which must hold the scene's initial
 // positions here) and the contact response.
 void Simulator::build_components() {
-  elastic_ = std::make_unique<ElasticForces>(scene_, world_);
-  implicit_.reset();
-  if (scene_.sim.integrator == IntegratorKind::implicit_euler)
-    implicit_ = std::make_unique<ImplicitEuler>(scene_, world_, *elastic_);
+  motion_.reset();  // the old implicit solver goes before the new one is made
+  motion_ = std::make_unique<UnconstrainedMotion>(scene_, world_);
   contact_ = std::make_unique<ContactResponse>(scene_, world_);
 }
 
@@ -317,13 +316,6 @@ private:
 };
 }  // namespace
 
-void Simulator::compute_forces() {
-  // Step 1: p = gravity + internal forces + Rayleigh damping at (x^t, v^t); implicit
-  // Euler treats damping inside its linear system instead.
-  gravity_forces(world_, scene_.sim.gravity, f_);
-  elastic_->add_forces(world_, f_, !implicit_);
-}
-
 // Item 7 of "Penetration vectors" (docs/collision.md): a record and its partner (the
 // record of its triangle's heavy vertex against its own body) may be on two ranks; each
 // rank sends the keys of its records whose heavy vertex is a ghost to its neighbours, so
@@ -377,18 +369,13 @@ double timed_phase(PetscLogEvent PhaseEvents::*event, F&& f) {
 }  // namespace
 
 void Simulator::forces_phase() {
-  const double s = timed_phase(&PhaseEvents::forces, [this] { compute_forces(); });
+  const double s = timed_phase(&PhaseEvents::forces, [this] { motion_->forces(world_, f_); });
   times_.forces += s;
   work_seconds_ += s;
 }
 
 void Simulator::unconstrained_motion() {
-  const Simulation& sim = scene_.sim;
-  times_.integrate += timed_phase(&PhaseEvents::integrate, [&] {
-    if (implicit_) implicit_->step(world_, sim, f_);
-    else unconstrained_step(world_, sim, f_);  // World::x = x~, World::x_prev = x^t
-    prescribed_motion(world_, time(), time() + sim.dt);  // moving anchors (scene `motion`)
-  });
+  times_.integrate += timed_phase(&PhaseEvents::integrate, [this] { motion_->advance(world_, f_, time()); });
 }
 
 // Ghost rows: x^t is what the last step ended with; x~ comes from the owners (and the
@@ -587,7 +574,7 @@ void Simulator::measure(StepDiagnostics& d, const VerifyFrame* check) {
   d.step = step_;
   d.time = time();
   ElasticMeasures em;
-  elastic_->measure(world_, em);
+  motion_->elastic().measure(world_, em);
   // Contact forces of this step's response; their balance is summed per object in
   // vertex order, then over objects in object order (any rank count: the same bits).
   reduce_mechanics(comm_, scene_, world_, d, &em, contact_->force().data());

@@ -1,14 +1,14 @@
 #pragma once
-// Test support: a scene's World stepped the way the run loop (src/sim/run.cpp) steps it,
-// without output: forces (gravity + internal + damping), then the unconstrained step of
-// the scene's integrator.
+// Test support: a scene's World stepped the way the Simulator steps it
+// (UnconstrainedMotion, motion.hpp: forces, then the unconstrained step of the scene's
+// integrator and the prescribed motion), without contact, output or MPI.
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "softcontact/forces.hpp"
 #include "softcontact/implicit_euler.hpp"
-#include "softcontact/integrator.hpp"
+#include "softcontact/motion.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/world.hpp"
 
@@ -17,33 +17,30 @@ namespace softcontact::test_support {
 struct Stepper {
   Scene scene;
   World w;
-  ElasticForces forces;
-  std::unique_ptr<ImplicitEuler> implicit;
+  UnconstrainedMotion motion;
+  ElasticForces& forces;
+  ImplicitEuler* implicit;
   std::vector<double> f;
+  std::int64_t steps = 0;
 
   explicit Stepper(Scene s)
-      : scene(std::move(s)), w(build_world(scene, block_partition(scene, 1), 0)), forces(scene, w) {
-    if (scene.sim.integrator == IntegratorKind::implicit_euler)
-      implicit = std::make_unique<ImplicitEuler>(scene, w, forces);
-  }
+      : scene(std::move(s)), w(build_world(scene, block_partition(scene, 1), 0)), motion(scene, w),
+        forces(motion.elastic()), implicit(motion.implicit()) {}
 
   static Stepper from_yaml(const std::string& yaml) { return Stepper(load_scene_from_string(yaml, "test.yaml")); }
 
-  void compute_forces() {
-    gravity_forces(w, scene.sim.gravity, f);
-    forces.add_forces(w, f, !implicit);
-  }
+  void compute_forces() { motion.forces(w, f); }
 
   /// Call after setting the initial state (World::x, World::v).
   void start() {
     compute_forces();
-    start_integration(w, scene.sim, f);
+    motion.start(w, f);
   }
 
   void step() {
     compute_forces();
-    if (implicit) implicit->step(w, scene.sim, f);
-    else unconstrained_step(w, scene.sim, f);
+    motion.advance(w, f, static_cast<double>(steps) * scene.sim.dt);
+    ++steps;
   }
 
   /// Strain energy of all objects [J].
