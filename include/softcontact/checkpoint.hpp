@@ -23,10 +23,11 @@
 
 #include "softcontact/partition.hpp"
 #include "softcontact/scene.hpp"
+#include "softcontact/step_state.hpp"
+#include "softcontact/world.hpp"
 
 namespace softcontact {
 
-class Simulator;
 
 /// What a checkpoint says about its run (identical on every rank after reading).
 struct CheckpointInfo {
@@ -56,22 +57,26 @@ struct CheckpointInfo {
 /// fingerprint differs (a mesh file edited since, for example).
 std::uint64_t scene_fingerprint(const Scene& scene);
 
-/// Writes `path` (via path + ".tmp", fsync and rename): the simulator's state and `info`
-/// (its step, time, anchor step, vertices, partition and boxes are taken from the
-/// simulator). Collective.
-void write_checkpoint(MPI_Comm comm, const std::string& path, Simulator& sim, CheckpointInfo info);
+/// Writes `path` (via path + ".tmp", fsync and rename): the owned rows of `state` (global
+/// rows from w's vertex ids) and `info`, whose step, anchor step, rank count and vertex
+/// count are taken from `state`, `comm` and `w`; the caller fills the rest (time, dt,
+/// partition, boxes, the run's settings). Collective.
+void write_checkpoint(MPI_Comm comm, const std::string& path, const World& w, const StepState& state,
+                      CheckpointInfo info);
 
 /// Reads the run description of a checkpoint (rank 0 reads, every rank receives it).
 /// Throws InputError naming the file when it is not a readable softcontact checkpoint.
 /// Collective.
 CheckpointInfo read_checkpoint_info(MPI_Comm comm, const std::string& path);
 
-/// Installs the checkpoint's state (positions, previous positions, velocities, anchors,
-/// step) into a simulator built from the same scene (any partition). A dataset missing or
-/// of another shape, a value that is not finite or an anchor outside its object is an
+/// Reads the checkpoint's state (positions, previous positions, velocities, anchors,
+/// step counters) for the owned vertices of `w`, a World built from the same scene (any
+/// partition), into `state` (Simulator::restore installs it). A dataset missing or of
+/// another shape, a value that is not finite or an anchor outside its object is an
 /// InputError naming the file (and the first such vertex), thrown on every rank together.
 /// Collective.
-void read_checkpoint_state(MPI_Comm comm, const std::string& path, const CheckpointInfo& info, Simulator& sim);
+void read_checkpoint_state(MPI_Comm comm, const std::string& path, const CheckpointInfo& info, const World& w,
+                           StepState& state);
 
 /// `path` itself when it is a file; for a directory (a run's output directory or its
 /// checkpoints/ folder) the checkpoint of the highest step in it. Throws InputError when

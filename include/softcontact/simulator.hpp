@@ -20,6 +20,7 @@
 #include "softcontact/diagnostics.hpp"
 #include "softcontact/partition.hpp"
 #include "softcontact/scene.hpp"
+#include "softcontact/step_state.hpp"
 #include "softcontact/surface.hpp"
 #include "softcontact/verify.hpp"
 #include "softcontact/world.hpp"
@@ -106,13 +107,13 @@ public:
   /// Collective, between steps.
   void migrate(const std::vector<int>& partition);
 
-  /// Friction anchors per owned vertex and the contact response's step counter: the state
-  /// a checkpoint carries besides positions and velocities.
-  std::vector<StictionAnchor>& anchors();
-  std::int64_t anchor_step() const;
-  /// After the owned rows of world().x, x_prev, v and anchors() were overwritten with a
-  /// checkpoint's state: continue at `step` (ghosts and halo rebuilt). Collective.
-  void resume(std::int64_t step, std::int64_t anchor_step);
+  /// The state of this rank's owned vertices that the next step needs (positions,
+  /// previous positions, velocities, friction anchors, the step counters): what
+  /// checkpoints save and migration carries.
+  StepState snapshot() const;
+  /// Installs `s` (rows in this World's owned order) and continues at s.step: ghosts and
+  /// halo rebuilt. Collective.
+  void restore(const StepState& s);
   /// Every object's box at the current positions (collective).
   std::vector<ObjectBox> current_boxes();
   // ---- numerical-failure guard (health.cpp, docs/reliability.md)

@@ -10,7 +10,6 @@
 #include "h5_util.hpp"
 #include "softcontact/error.hpp"
 #include "softcontact/fault.hpp"
-#include "softcontact/simulator.hpp"
 
 namespace softcontact {
 
@@ -73,20 +72,16 @@ std::string resolve_checkpoint(const std::string& path) {
   return all.back().second.string();
 }
 
-void write_checkpoint(MPI_Comm comm, const std::string& path, Simulator& sim, CheckpointInfo info) {
+void write_checkpoint(MPI_Comm comm, const std::string& path, const World& w, const StepState& state,
+                      CheckpointInfo info) {
   int rank = 0, size = 1;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);
-  const World& w = sim.world();
   info.format = kFormat;
-  info.step = sim.step_count();
-  info.time = sim.time();
-  info.dt = sim.scene().sim.dt;
+  info.step = state.step;
   info.ranks = size;
-  info.anchor_step = sim.anchor_step();
+  info.anchor_step = state.anchor_step;
   info.vertices = w.global_vertices;
-  info.partition = sim.partition();
-  info.boxes = sim.current_boxes();
   if (rank == 0) {
     std::error_code ec;
     fs::create_directories(fs::path(path).parent_path(), ec);
@@ -95,15 +90,15 @@ void write_checkpoint(MPI_Comm comm, const std::string& path, Simulator& sim, Ch
 
   const std::string tmp = path + ".tmp";
   const hid_t file = h5::create_parallel(comm, tmp, "the checkpoint");
-  const hid_t state = h5::check_id(H5Gcreate2(file, "/state", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), "create /state");
+  const hid_t group = h5::check_id(H5Gcreate2(file, "/state", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), "create /state");
   const std::vector<GidRun> runs = owned_vertex_runs(w);
   const gid_t nv = w.global_vertices;
-  h5::write_rows(state, "x", nv, 3, runs, w.x.data());
+  h5::write_rows(group, "x", nv, 3, runs, state.x.data());
   if (fault::hit(fault::Point::checkpoint_write, info.step))
     throw RuntimeFailure(fault::io_error(fault::Point::checkpoint_write, tmp));
-  h5::write_rows(state, "x_prev", nv, 3, runs, w.x_prev.data());
-  h5::write_rows(state, "v", nv, 3, runs, w.v.data());
-  const std::vector<StictionAnchor>& anchors = sim.anchors();
+  h5::write_rows(group, "x_prev", nv, 3, runs, state.x_prev.data());
+  h5::write_rows(group, "v", nv, 3, runs, state.v.data());
+  const std::vector<StictionAnchor>& anchors = state.anchors;
   Rows r;
   constexpr int na = StictionAnchor::kPerPoint;
   for (std::size_t i = 0; i < w.n_owned; ++i)
@@ -115,11 +110,11 @@ void write_checkpoint(MPI_Comm comm, const std::string& path, Simulator& sim, Ch
         r.anchor_bary.push_back(a.bary[c]);
       }
     }
-  h5::write_rows(state, "anchor_step", nv, na, runs, r.anchor_step.data());
-  h5::write_rows(state, "anchor_object", nv, na, runs, r.anchor_object.data());
-  h5::write_rows(state, "anchor_triangle", nv, 3 * na, runs, r.anchor_tri.data());
-  h5::write_rows(state, "anchor_bary", nv, 3 * na, runs, r.anchor_bary.data());
-  H5Gclose(state);
+  h5::write_rows(group, "anchor_step", nv, na, runs, r.anchor_step.data());
+  h5::write_rows(group, "anchor_object", nv, na, runs, r.anchor_object.data());
+  h5::write_rows(group, "anchor_triangle", nv, 3 * na, runs, r.anchor_tri.data());
+  h5::write_rows(group, "anchor_bary", nv, 3 * na, runs, r.anchor_bary.data());
+  H5Gclose(group);
 
   // The run description: written by rank 0 (every rank holds the same), independent I/O.
   const hid_t run = h5::check_id(H5Gcreate2(file, "/run", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), "create /run");
@@ -249,8 +244,8 @@ CheckpointInfo read_checkpoint_info(MPI_Comm comm, const std::string& path) {
   return i;
 }
 
-void read_checkpoint_state(MPI_Comm comm, const std::string& path, const CheckpointInfo& info, Simulator& sim) {
-  World& w = sim.world();
+void read_checkpoint_state(MPI_Comm comm, const std::string& path, const CheckpointInfo& info, const World& w,
+                           StepState& state) {
   if (info.vertices != w.global_vertices)
     throw InputError(path, 0, "the checkpoint has " + std::to_string(info.vertices) + " vertices, the scene " +
                                   std::to_string(w.global_vertices));
@@ -276,11 +271,14 @@ void read_checkpoint_state(MPI_Comm comm, const std::string& path, const Checkpo
   std::int64_t first = mine;
   MPI_Allreduce(&mine, &first, 1, MPI_INT64_T, MPI_MIN, comm);
   if (first != std::numeric_limits<std::int64_t>::max()) throw InputError(path, 0, checkpoint::state_problem(first));
-  std::copy(r.x.begin(), r.x.end(), w.x.begin());
-  std::copy(r.x_prev.begin(), r.x_prev.end(), w.x_prev.begin());
-  std::copy(r.v.begin(), r.v.end(), w.v.begin());
+  state.step = info.step;
+  state.anchor_step = info.anchor_step;
+  state.x = std::move(r.x);
+  state.x_prev = std::move(r.x_prev);
+  state.v = std::move(r.v);
   constexpr std::size_t na = StictionAnchor::kPerPoint;
-  std::vector<StictionAnchor>& anchors = sim.anchors();
+  std::vector<StictionAnchor>& anchors = state.anchors;
+  anchors.assign(n, StictionAnchor{});
   for (std::size_t i = 0; i < na * n; ++i) {
     AnchorEntry& a = anchors[i / na].entry[i % na];
     a.step = r.anchor_step[i];
@@ -290,7 +288,6 @@ void read_checkpoint_state(MPI_Comm comm, const std::string& path, const Checkpo
       a.bary[c] = r.anchor_bary[3 * i + c];
     }
   }
-  sim.resume(info.step, info.anchor_step);
 }
 
 }  // namespace softcontact

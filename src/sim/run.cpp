@@ -263,7 +263,11 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     partition = same ? info.partition : partition_at(scene, extract_surfaces(scene), info.boxes, nranks);
   }
   Simulator simulator(comm, scene, partition);
-  if (restart) read_checkpoint_state(comm, restart->path, restart->info, simulator);
+  if (restart) {
+    StepState state;
+    read_checkpoint_state(comm, restart->path, restart->info, simulator.world(), state);
+    simulator.restore(state);
+  }
   const std::int64_t rebuilds0 = simulator.ghost_rebuilds(), repartitions0 = simulator.repartitions();
   if (rank == 0 && !restart && simulator.initial_overlaps() > 0)
     std::cerr << scene.path << ": warning: " << simulator.initial_overlaps()
@@ -331,6 +335,10 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     if (!bad.empty()) guard.fail(step, simulator.time(), bad);
     const double t0 = now();
     CheckpointInfo info;
+    info.time = simulator.time();
+    info.dt = sim.dt;
+    info.partition = simulator.partition();
+    info.boxes = simulator.current_boxes();  // collective
     info.steps = nsteps;
     info.output_every = every;
     info.frames = writer->frames_written();
@@ -341,7 +349,7 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     info.scene_text = scene.text;
     info.output_dir = dir.string();
     const std::string path = checkpoint_path(dir.string(), step);
-    write_checkpoint(comm, path, simulator, info);
+    write_checkpoint(comm, path, simulator.world(), simulator.snapshot(), info);
     if (rank == 0) prune_checkpoints(dir.string(), sim.checkpoint_keep);
     guard.checkpoint_written(path, step);
     if (rank == 0 && !opt.quiet)

@@ -476,23 +476,24 @@ struct VertexState {
 void Simulator::migrate(const std::vector<int>& next) {
   if (next.size() != partition_.size()) throw RuntimeFailure("migrate: the partition has the wrong size");
   // Send every owned object that changes rank, whole, in ascending object order.
+  const StepState now = snapshot();
+  auto row = [&now](std::size_t v) {
+    VertexState s;
+    for (std::size_t d = 0; d < 3; ++d) {
+      s.x[d] = now.x[3 * v + d];
+      s.x_prev[d] = now.x_prev[3 * v + d];
+      s.v[d] = now.v[3 * v + d];
+    }
+    s.anchor = now.anchors[v];
+    return s;
+  };
   std::vector<std::vector<VertexState>> out(static_cast<std::size_t>(nranks_));
-  std::vector<StictionAnchor>& anchors = contact_->anchors();
   for (int k : world_.owned_objects) {
     const int to = next[static_cast<std::size_t>(k)];
     if (to == rank_) continue;
     const auto off = static_cast<std::size_t>(world_.vertex_offset[static_cast<std::size_t>(k)]);
-    for (gid_t i = 0; i < world_.layout[static_cast<std::size_t>(k)].vertex_count; ++i) {
-      const std::size_t v = off + static_cast<std::size_t>(i);
-      VertexState s;
-      for (int d = 0; d < 3; ++d) {
-        s.x[d] = world_.x[3 * v + static_cast<std::size_t>(d)];
-        s.x_prev[d] = world_.x_prev[3 * v + static_cast<std::size_t>(d)];
-        s.v[d] = world_.v[3 * v + static_cast<std::size_t>(d)];
-      }
-      s.anchor = anchors[v];
-      out[static_cast<std::size_t>(to)].push_back(s);
-    }
+    for (gid_t i = 0; i < world_.layout[static_cast<std::size_t>(k)].vertex_count; ++i)
+      out[static_cast<std::size_t>(to)].push_back(row(off + static_cast<std::size_t>(i)));
   }
   std::vector<int> scount(static_cast<std::size_t>(nranks_)), rcount(static_cast<std::size_t>(nranks_)),
       sdisp(static_cast<std::size_t>(nranks_)), rdisp(static_cast<std::size_t>(nranks_));
@@ -513,8 +514,13 @@ void Simulator::migrate(const std::vector<int>& next) {
                 comm_);
 
   World next_world = build_world(scene_, surfaces_, next, rank_);  // initial positions
-  std::vector<double> nx(3 * next_world.n_owned), nxp(3 * next_world.n_owned), nv(3 * next_world.n_owned);
-  std::vector<StictionAnchor> next_anchor(next_world.n_owned);
+  StepState then;  // the same state in the next World's owned order
+  then.step = now.step;
+  then.anchor_step = now.anchor_step;
+  then.x.resize(3 * next_world.n_owned);
+  then.x_prev.resize(3 * next_world.n_owned);
+  then.v.resize(3 * next_world.n_owned);
+  then.anchors.resize(next_world.n_owned);
   // Objects that stay: copy. Objects that arrive: from each sender's buffer, in
   // ascending object order (the order they were packed in).
   std::vector<std::size_t> read(static_cast<std::size_t>(nranks_), 0);
@@ -526,46 +532,49 @@ void Simulator::migrate(const std::vector<int>& next) {
       const std::size_t v = to + static_cast<std::size_t>(i);
       VertexState s;
       if (from == rank_) {
-        const auto u = static_cast<std::size_t>(world_.vertex_offset[static_cast<std::size_t>(k)]) + static_cast<std::size_t>(i);
-        for (std::size_t d = 0; d < 3; ++d) {
-          s.x[d] = world_.x[3 * u + d];
-          s.x_prev[d] = world_.x_prev[3 * u + d];
-          s.v[d] = world_.v[3 * u + d];
-        }
-        s.anchor = anchors[u];
+        s = row(static_cast<std::size_t>(world_.vertex_offset[static_cast<std::size_t>(k)]) + static_cast<std::size_t>(i));
       } else {
         std::size_t& at = read[static_cast<std::size_t>(from)];
         std::memcpy(&s, rbuf.data() + rdisp[static_cast<std::size_t>(from)] + at, sizeof(VertexState));
         at += sizeof(VertexState);
       }
       for (std::size_t d = 0; d < 3; ++d) {
-        nx[3 * v + d] = s.x[d];
-        nxp[3 * v + d] = s.x_prev[d];
-        nv[3 * v + d] = s.v[d];
+        then.x[3 * v + d] = s.x[d];
+        then.x_prev[3 * v + d] = s.x_prev[d];
+        then.v[3 * v + d] = s.v[d];
       }
-      next_anchor[v] = s.anchor;
+      then.anchors[v] = s.anchor;
     }
   }
-  const std::int64_t anchor_step = contact_->anchor_step();
   partition_ = next;
   world_ = std::move(next_world);
   detector_.reset();
   halo_.reset();
   build_components();  // rest shapes from the initial positions, then the state
-  std::copy(nx.begin(), nx.end(), world_.x.begin());
-  std::copy(nxp.begin(), nxp.end(), world_.x_prev.begin());
-  std::copy(nv.begin(), nv.end(), world_.v.begin());
-  contact_->anchors() = std::move(next_anchor);
-  contact_->set_anchor_step(anchor_step);
-  rebuild_ghosts(true);
+  restore(then);
 }
 
-std::vector<StictionAnchor>& Simulator::anchors() { return contact_->anchors(); }
-std::int64_t Simulator::anchor_step() const { return contact_->anchor_step(); }
+StepState Simulator::snapshot() const {
+  StepState s;
+  const auto rows = static_cast<std::ptrdiff_t>(3 * world_.n_owned);
+  s.step = step_;
+  s.anchor_step = contact_->anchor_step();
+  s.x.assign(world_.x.begin(), world_.x.begin() + rows);
+  s.x_prev.assign(world_.x_prev.begin(), world_.x_prev.begin() + rows);
+  s.v.assign(world_.v.begin(), world_.v.begin() + rows);
+  s.anchors.assign(contact_->anchors().begin(), contact_->anchors().begin() + static_cast<std::ptrdiff_t>(world_.n_owned));
+  return s;
+}
 
-void Simulator::resume(std::int64_t step, std::int64_t anchor_step) {
-  step_ = step;
-  contact_->set_anchor_step(anchor_step);
+void Simulator::restore(const StepState& s) {
+  SC_ASSERT(s.x.size() == 3 * world_.n_owned && s.x_prev.size() == s.x.size() && s.v.size() == s.x.size() &&
+            s.anchors.size() == world_.n_owned);
+  std::copy(s.x.begin(), s.x.end(), world_.x.begin());
+  std::copy(s.x_prev.begin(), s.x_prev.end(), world_.x_prev.begin());
+  std::copy(s.v.begin(), s.v.end(), world_.v.begin());
+  std::copy(s.anchors.begin(), s.anchors.end(), contact_->anchors().begin());
+  step_ = s.step;
+  contact_->set_anchor_step(s.anchor_step);
   // The halo broadcast fills ghost rows of x and x_prev from their owners.
   rebuild_ghosts(true);
 }
