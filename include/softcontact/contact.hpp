@@ -45,6 +45,7 @@
 #include <vector>
 
 #include "softcontact/collision.hpp"
+#include "softcontact/keyed_sums.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/world.hpp"
 
@@ -153,8 +154,6 @@ private:
     double friction[3];      // sum of friction local forces
     double depth[3];         // sum of d_i as point i
     gid_t gid;
-    std::int32_t nb;         // ghost: index of its owner among the exchange's neighbours; owned: -1
-    bool remote;             // owned, with contributions from other ranks in the current sum
   };
   struct Local {             // per collision
     std::int32_t slot[4];    // i, j, k, l
@@ -178,22 +177,11 @@ private:
     bool keep_anchor;        // friction: stuck to a valid anchor, which stays
     bool keep_patch;         // friction: its patch (object, other object) has been decided
   };
-  // A contribution to an owned vertex's sum from another rank, with its collision's key.
-  struct Record {
-    gid_t vertex, key_point, key_triangle;
-    double v[3];
-  };
-  struct Contribution {
-    std::int32_t slot;
-    gid_t key_point, key_triangle;
-    double v[3];
-  };
   std::int32_t slot_of_vertex(const World& w, index_t v);
   void plan_ghosts(const World& w, NeighbourExchange* exchange);
-  template <class Emit, class Target>
-  void reduce(const std::vector<Collision>& col, int dim, Emit&& emit, Target&& target, NeighbourExchange* exchange);
-  template <class Value>
-  void reply(int dim, Value&& value, NeighbourExchange* exchange);
+  template <class Emit>
+  void sum(const std::vector<Collision>& col, Emit&& emit, double (Slot::*field)[3]);
+  void reply(double (Slot::*field)[3]);
   void effective_depths(const std::vector<Collision>& c, double dt);
   std::int64_t normal_coefficients(const std::vector<Collision>& c, double dt);
   void coupled_coefficients(const std::vector<Collision>& c, double dt, NeighbourExchange* exchange, ContactStats& stats);
@@ -214,12 +202,9 @@ private:
   std::vector<Local> local_;
   std::vector<StictionAnchor> anchor_;                     // n_owned
   std::vector<gid_t> object_vertex_begin_;                 // per object, for gid -> object
-  std::vector<std::vector<std::int32_t>> request_;         // per neighbour: our ghost slots it owns
-  std::vector<std::vector<std::int32_t>> served_;          // per neighbour: our owned slots it asked for
-  std::vector<Record> remote_;                             // received contributions (one sum at a time)
-  std::vector<Contribution> merge_;                        // local contributions to slots with remote ones
-  std::vector<gid_t> served_gids_;                         // sorted gids of all served vertices
-  std::vector<std::int32_t> served_slot_;                  // their slots
+  KeyedSums sums_;                                         // the per-vertex sums over ranks (keyed_sums.hpp)
+  std::vector<int> slot_owner_;                            // per slot: owner rank of a ghost, -1 owned
+  std::vector<gid_t> slot_gid_;                            // per slot: global vertex id
   const double* world_x_prev_ = nullptr;                   // x^t during respond()
   std::int64_t step_ = 0;                                  // respond() calls so far
   std::vector<double> force_, penetration_;                // n_local x 3, filled on demand

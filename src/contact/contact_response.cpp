@@ -19,14 +19,13 @@
 
 #include "softcontact/error.hpp"
 #include "softcontact/exchange.hpp"
+#include "softcontact/keyed_sums.hpp"
 #include "softcontact/verify.hpp"
 
 namespace softcontact {
 
 namespace {
 inline double norm3(const double* a) { return std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]); }
-
-bool key_less(gid_t ap, gid_t at, gid_t bp, gid_t bt) { return ap != bp ? ap < bp : at < bt; }
 
 // A vector v acting on a collision's point side: all on i for a vertex collision, split
 // by the weights (pw, 1 - pw) over an edge contact's two vertices.
@@ -64,146 +63,40 @@ std::int32_t ContactResponse::slot_of_vertex(const World& w, index_t v) {
     s.mass = w.mass[i];
     s.inv_mass = w.inv_mass[i];
     s.gid = w.vertex_gid[i];
-    s.nb = -1;
-    s.remote = false;
     for (int d = 0; d < 3; ++d) s.dx[d] = s.dx0[d] = w.x[3 * i + d] - w.x_prev[3 * i + d];
     slots_.push_back(s);
   }
   return slot_of_[i];
 }
 
-// Which ghost slots each neighbour owns (our requests), and which of our vertices each
-// neighbour asks for (served): exchanged once per step, with the column sums.
+// Which slots are ghosts and who owns them; the neighbours' requests add slots for our
+// vertices they touch (KeyedSums::plan, once per step).
 void ContactResponse::plan_ghosts(const World& w, NeighbourExchange* exchange) {
-  const std::size_t nn = exchange ? exchange->neighbors().size() : 0;
-  request_.assign(nn, {});
-  served_.assign(nn, {});
-  if (nn == 0) return;
-  const std::vector<int>& nbr = exchange->neighbors();
+  slot_owner_.resize(slots_.size());
+  slot_gid_.resize(slots_.size());
   for (std::size_t k = 0; k < slots_.size(); ++k) {
-    const index_t v = vertex_of_[k];
-    if (static_cast<std::size_t>(v) < w.n_owned) continue;
-    const int owner = w.layout[static_cast<std::size_t>(w.vertex_object[static_cast<std::size_t>(v)])].rank;
-    const auto it = std::lower_bound(nbr.begin(), nbr.end(), owner);
-    slots_[k].nb = static_cast<std::int32_t>(it - nbr.begin());
-    request_[static_cast<std::size_t>(slots_[k].nb)].push_back(static_cast<std::int32_t>(k));
+    const auto v = static_cast<std::size_t>(vertex_of_[k]);
+    slot_owner_[k] = v < w.n_owned ? -1 : w.layout[static_cast<std::size_t>(w.vertex_object[v])].rank;
+    slot_gid_[k] = slots_[k].gid;
   }
-  std::vector<std::vector<char>> send(nn);
-  for (std::size_t n = 0; n < nn; ++n) {
-    std::vector<gid_t> gids;
-    for (std::int32_t k : request_[n]) gids.push_back(slots_[static_cast<std::size_t>(k)].gid);
-    append_records(send[n], gids.data(), gids.size());
-  }
-  const auto recv = exchange->exchange_bytes(send);
-  std::vector<std::pair<gid_t, std::int32_t>> served;
-  for (std::size_t n = 0; n < nn; ++n)
-    for (gid_t g : read_records<gid_t>(recv[n])) {
-      const auto o = std::upper_bound(object_vertex_begin_.begin(), object_vertex_begin_.end(), g) -
-                     object_vertex_begin_.begin() - 1;
-      served_[n].push_back(slot_of_vertex(w, w.local_vertex(static_cast<int>(o), g)));
-      served.emplace_back(g, served_[n].back());
-    }
-  std::sort(served.begin(), served.end());
-  served.erase(std::unique(served.begin(), served.end()), served.end());
-  served_gids_.clear();
-  served_slot_.clear();
-  for (const auto& [g, k] : served) {
-    served_gids_.push_back(g);
-    served_slot_.push_back(k);
-  }
-}
-
-// Sums a per-vertex quantity of `dim` components over the collisions: emit(q, f) calls
-// f(slot, value) for every contribution of collision q; target(slot) is the sum to fill
-// (zero before). Owned slots get their complete sums; ghost slots none (reply() fills
-// what is needed).
-template <class Emit, class Target>
-void ContactResponse::reduce(const std::vector<Collision>& col, int dim, Emit&& emit, Target&& target, NeighbourExchange* exchange) {
-  const std::size_t nn = request_.size();
-  remote_.clear();
-  if (nn > 0) {
-    std::vector<std::vector<char>> send(nn);
-    std::vector<std::vector<Record>> out(nn);
-    for (std::size_t q = 0; q < col.size(); ++q)
-      emit(q, [&](std::int32_t k, const double* v) {
-        const Slot& s = slots_[static_cast<std::size_t>(k)];
-        if (s.nb < 0) return;
-        Record r{s.gid, col[q].point_gid, col[q].triangle_gid, {0, 0, 0}};
-        for (int d = 0; d < dim; ++d) r.v[d] = v[d];
-        out[static_cast<std::size_t>(s.nb)].push_back(r);
-      });
-    for (std::size_t n = 0; n < nn; ++n) append_records(send[n], out[n].data(), out[n].size());
-    const auto recv = exchange->exchange_bytes(send);
-    for (std::size_t n = 0; n < nn; ++n) {
-      const std::vector<Record> in = read_records<Record>(recv[n]);
-      remote_.insert(remote_.end(), in.begin(), in.end());
-    }
-  }
-  // The common case: every contribution is local and already in key order.
-  for (const Record& r : remote_) {
-    // Owner-side lookup: the vertex was requested in plan_ghosts, so it has a slot.
-    const auto it = std::lower_bound(served_gids_.begin(), served_gids_.end(), r.vertex);
-    slots_[static_cast<std::size_t>(served_slot_[static_cast<std::size_t>(it - served_gids_.begin())])].remote = true;
-  }
-  for (std::size_t q = 0; q < col.size(); ++q)
-    emit(q, [&](std::int32_t k, const double* v) {
-      Slot& s = slots_[static_cast<std::size_t>(k)];
-      if (s.nb >= 0 || s.remote) return;
-      double* t = target(s);
-      for (int d = 0; d < dim; ++d) t[d] += v[d];
-    });
-  if (remote_.empty()) return;
-  // Vertices with contributions from other ranks: merge theirs and ours by key.
-  merge_.clear();
-  for (std::size_t q = 0; q < col.size(); ++q)
-    emit(q, [&](std::int32_t k, const double* v) {
-      if (!slots_[static_cast<std::size_t>(k)].remote) return;
-      Contribution c{k, col[q].point_gid, col[q].triangle_gid, {0, 0, 0}};
-      for (int d = 0; d < dim; ++d) c.v[d] = v[d];
-      merge_.push_back(c);
-    });
-  for (const Record& r : remote_) {
-    const auto it = std::lower_bound(served_gids_.begin(), served_gids_.end(), r.vertex);
-    Contribution c{served_slot_[static_cast<std::size_t>(it - served_gids_.begin())], r.key_point, r.key_triangle,
-                   {r.v[0], r.v[1], r.v[2]}};
-    merge_.push_back(c);
-  }
-  std::sort(merge_.begin(), merge_.end(), [](const Contribution& a, const Contribution& b) {
-    if (a.slot != b.slot) return a.slot < b.slot;
-    return key_less(a.key_point, a.key_triangle, b.key_point, b.key_triangle);
+  sums_.plan(exchange, slot_owner_, slot_gid_, [&](gid_t g) {
+    const auto o = std::upper_bound(object_vertex_begin_.begin(), object_vertex_begin_.end(), g) -
+                   object_vertex_begin_.begin() - 1;
+    return slot_of_vertex(w, w.local_vertex(static_cast<int>(o), g));
   });
-  for (const Contribution& c : merge_) {
-    double* t = target(slots_[static_cast<std::size_t>(c.slot)]);
-    for (int d = 0; d < dim; ++d) t[d] += c.v[d];
-  }
-  for (const Contribution& c : merge_) slots_[static_cast<std::size_t>(c.slot)].remote = false;
 }
 
-// The owners send value(slot) of every vertex a neighbour asked for; the answers land
-// in the neighbour's ghost slots through value(slot) as a destination.
-template <class Value>
-void ContactResponse::reply(int dim, Value&& value, NeighbourExchange* exchange) {
-  const std::size_t nn = request_.size();
-  if (nn == 0) return;
-  std::vector<std::vector<char>> send(nn);
-  for (std::size_t n = 0; n < nn; ++n) {
-    std::vector<double> vals;
-    vals.reserve(static_cast<std::size_t>(dim) * served_[n].size());
-    for (std::int32_t k : served_[n]) {
-      const double* v = value(slots_[static_cast<std::size_t>(k)]);
-      vals.insert(vals.end(), v, v + dim);
-    }
-    append_records(send[n], vals.data(), vals.size());
-  }
-  const auto recv = exchange->exchange_bytes(send);
-  for (std::size_t n = 0; n < nn; ++n) {
-    const std::vector<double> vals = read_records<double>(recv[n]);
-    SC_ASSERT(vals.size() == static_cast<std::size_t>(dim) * request_[n].size());
-    for (std::size_t i = 0; i < request_[n].size(); ++i) {
-      double* v = value(slots_[static_cast<std::size_t>(request_[n][i])]);
-      for (int d = 0; d < dim; ++d) v[d] = vals[static_cast<std::size_t>(dim) * i + static_cast<std::size_t>(d)];
-    }
-  }
+// A per-slot field summed over the collisions in key order (KeyedSums::reduce).
+template <class Emit>
+void ContactResponse::sum(const std::vector<Collision>& col, Emit&& emit, double (Slot::*field)[3]) {
+  sums_.reduce(
+      col.size(), [&](std::size_t q) { return KeyedSums::Key{col[q].point_gid, col[q].triangle_gid}; }, 3, emit,
+      [&](std::int32_t k) -> double* { return slots_[static_cast<std::size_t>(k)].*field; });
+}
+
+// The owners' values of a per-slot field into the ghost slots (KeyedSums::reply).
+void ContactResponse::reply(double (Slot::*field)[3]) {
+  sums_.reply(3, [&](std::int32_t k) -> double* { return slots_[static_cast<std::size_t>(k)].*field; });
 }
 
 // The depth each collision removes in this step, and the step's approach. The part of
@@ -386,7 +279,7 @@ void ContactResponse::coupled_coefficients(const std::vector<Collision>& col, do
       std::sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
         const auto& ra = all[static_cast<std::size_t>(a)];
         const auto& rb = all[static_cast<std::size_t>(b)];
-        return key_less(ra.key_point, ra.key_triangle, rb.key_point, rb.key_triangle);
+        return KeyedSums::Key{ra.key_point, ra.key_triangle} < KeyedSums::Key{rb.key_point, rb.key_triangle};
       });
       std::vector<contact::ClosureRow> sorted(all.size());
       for (std::size_t i = 0; i < all.size(); ++i) sorted[i] = all[static_cast<std::size_t>(order[i])];
@@ -567,15 +460,15 @@ void ContactResponse::respond(World& w, const std::vector<Collision>& col, doubl
   plan_ghosts(w, exchange);  // collective over the neighbours, also without collisions
   // Without neighbours and collisions there is nothing to do; with neighbours every
   // exchange below must take place (they may need our vertices' sums).
-  if (request_.empty() && col.empty()) {
+  if (sums_.local() && col.empty()) {
     if (coupled_) coupled_coefficients(col, dt, exchange, stats);  // collective: rank 0 gathers every rank's rows
     return;
   }
 
   // The summed pushes on each vertex (the shares; the paper's column sums s_j of H with
   // a direction), then the coefficients of the local force pairs.
-  reduce(
-      col, 3,
+  sum(
+      col,
       [&](std::size_t q, auto&& f) {
         const double* p = col[q].depth.data();
         emit_point_side(local_[q], p, f);
@@ -585,8 +478,8 @@ void ContactResponse::respond(World& w, const std::vector<Collision>& col, doubl
           f(local_[q].slot[1 + k], pj);
         }
       },
-      [](Slot& s) { return s.share; }, exchange);
-  reply(3, [](Slot& s) { return s.share; }, exchange);
+      &Slot::share);
+  reply(&Slot::share);
   effective_depths(col, dt);
   stats.separating = capped_;
   stats.fixed_pairs = normal_coefficients(col, dt);
@@ -595,8 +488,8 @@ void ContactResponse::respond(World& w, const std::vector<Collision>& col, doubl
   // Normal forces f_i = a_i d_i, f_Ti,j = a_j d_i per vertex; the normal correction
   // (friction sees the corrected motion), x = x~ + dt^2 F / m, of the owned slots; the
   // corrected motions of the ghost slots from their owners.
-  reduce(
-      col, 3,
+  sum(
+      col,
       [&](std::size_t q, auto&& f) {
         const Local& L = local_[q];
         const double* d = L.d;
@@ -607,16 +500,16 @@ void ContactResponse::respond(World& w, const std::vector<Collision>& col, doubl
           f(L.slot[1 + k], fj);
         }
       },
-      [](Slot& s) { return s.normal; }, exchange);
+      &Slot::normal);
   const double dt2 = dt * dt;
-  for (Slot& s : slots_)
-    if (s.nb < 0)
-      for (int d = 0; d < 3; ++d) s.dx[d] += dt2 * s.inv_mass * s.normal[d];
-  reply(3, [](Slot& s) { return s.dx; }, exchange);
+  for (std::size_t k = 0; k < slots_.size(); ++k)
+    if (sums_.owned(k))
+      for (int d = 0; d < 3; ++d) slots_[k].dx[d] += dt2 * slots_[k].inv_mass * slots_[k].normal[d];
+  reply(&Slot::dx);
   dynamic_fractions(col);
   // The dynamic part of the same forces (dynamic_fractions): what changes velocities.
-  reduce(
-      col, 3,
+  sum(
+      col,
       [&](std::size_t q, auto&& f) {
         const Local& L = local_[q];
         const double* d = L.d;
@@ -629,7 +522,7 @@ void ContactResponse::respond(World& w, const std::vector<Collision>& col, doubl
           f(L.slot[1 + k], fj);
         }
       },
-      [](Slot& s) { return s.normal_dynamic; }, exchange);
+      &Slot::normal_dynamic);
   for (std::size_t q = 0; q < col.size(); ++q) {
     if (col[q].point2 >= 0) continue;  // the penetration field is per point: vertex collisions
     Slot& si = slots_[static_cast<std::size_t>(local_[q].slot[0])];
@@ -637,8 +530,8 @@ void ContactResponse::respond(World& w, const std::vector<Collision>& col, doubl
   }
 
   friction_coefficients(col, stats);
-  reduce(
-      col, 3,
+  sum(
+      col,
       [&](std::size_t q, auto&& f) {
         const Local& L = local_[q];
         if (L.scale == 0) return;
@@ -649,12 +542,12 @@ void ContactResponse::respond(World& w, const std::vector<Collision>& col, doubl
           f(L.slot[1 + k], fj);
         }
       },
-      [](Slot& s) { return s.friction; }, exchange);
+      &Slot::friction);
 
   double sum[3] = {0, 0, 0}, abs_sum = 0;
   for (std::size_t k = 0; k < slots_.size(); ++k) {
     const Slot& s = slots_[k];
-    if (s.nb >= 0) continue;  // a ghost: its owner applies the sums
+    if (!sums_.owned(k)) continue;  // a ghost: its owner applies the sums
     const auto v = static_cast<std::size_t>(vertex_of_[k]);
     // The contact force is the dynamic part (the momentum it transfers, F dt); the
     // position-only part moves x (and x^t with it) but is no force.
@@ -746,7 +639,7 @@ void ContactResponse::materialize() {
     for (int d = 0; d < 3; ++d) force_[3 * v + d] = penetration_[3 * v + d] = 0;
   materialized_ = vertex_of_;
   for (std::size_t k = 0; k < slots_.size(); ++k) {
-    if (slots_[k].nb >= 0) continue;  // ghost: partial sums only
+    if (!sums_.owned(k)) continue;  // ghost: partial sums only
     const index_t v = vertex_of_[k];
     for (int d = 0; d < 3; ++d) {
       force_[3 * v + d] = slots_[k].normal_dynamic[d] + slots_[k].friction[d];

@@ -1,0 +1,164 @@
+#pragma once
+// Per-vertex sums over collisions in a fixed key order, on any number of ranks
+// (docs/architecture.md, "Keyed sums"). The contact response keeps a compact row per
+// vertex that takes part in this step's collisions (a "slot"); each collision adds to
+// the slots of its vertices, and every sum must add a vertex's contributions in the order
+// of their collisions' keys (point_gid, triangle_gid) so that the result does not depend
+// on how collisions are spread over threads and ranks.
+//
+// One rank (no exchange): every slot is owned, the collisions come sorted by key, and a
+// sum folds in place in one pass. Several ranks: a slot may be a ghost (a vertex another
+// rank owns). reduce() sends the contributions to ghost slots, with their keys, to the
+// owner, which merges them with its own in key order and folds; reply() sends the owners'
+// values of the vertices a neighbour asked for back into its ghost slots. Only the
+// transport (NeighbourExchange) knows about MPI.
+#include <algorithm>
+#include <cstdint>
+#include <functional>
+#include <utility>
+#include <vector>
+
+#include "softcontact/error.hpp"
+#include "softcontact/exchange.hpp"
+#include "softcontact/world.hpp"
+
+namespace softcontact {
+
+class KeyedSums {
+public:
+  /// The collision key that orders a vertex's contributions.
+  struct Key {
+    gid_t point, triangle;
+    bool operator<(const Key& o) const { return point != o.point ? point < o.point : triangle < o.triangle; }
+  };
+
+  /// Starts a step over `exchange` (null: one rank). `owner[k]` is the rank that owns
+  /// slot k's vertex (-1 or this rank: owned), `gid[k]` its global id. Neighbours ask
+  /// for the sums of owned vertices: `slot_of(gid)` returns the slot of such a vertex
+  /// (the caller adds one if it has none; new slots are numbered on from owner.size()).
+  /// Collective over the exchange's neighbours, also with no slots.
+  void plan(NeighbourExchange* exchange, const std::vector<int>& owner, const std::vector<gid_t>& gid,
+            const std::function<std::int32_t(gid_t)>& slot_of);
+
+  /// Slots after plan() (the given ones and those added for neighbours).
+  std::size_t slots() const { return nb_.size(); }
+  /// Whether slot k's vertex belongs to this rank (its sums are complete after reduce()).
+  bool owned(std::size_t k) const { return nb_[k] < 0; }
+  /// No neighbour: every sum is local.
+  bool local() const { return request_.empty(); }
+
+  /// Sums a quantity of `dim` (<= 3) components per slot over the collisions
+  /// 0..n-1, whose keys `key(q)` ascend. emit(q, f) calls f(slot, value) for every
+  /// contribution of collision q; target(slot) is the sum to add to (zero before).
+  /// Owned slots get their complete sums, ghost slots none (reply() fills what is
+  /// needed). Collective over the neighbours.
+  template <class KeyOf, class Emit, class Target>
+  void reduce(std::size_t n, KeyOf&& key, int dim, Emit&& emit, Target&& target);
+
+  /// Owners send value(slot) (dim components) of every vertex a neighbour asked for;
+  /// the answers land in the neighbour's ghost slots through value(slot) as a
+  /// destination. Collective over the neighbours.
+  template <class Value>
+  void reply(int dim, Value&& value);
+
+private:
+  // A contribution to an owned vertex's sum from another rank, with its collision's key.
+  struct Record {
+    gid_t vertex;
+    Key key;
+    double v[3];
+  };
+  struct Contribution {
+    std::int32_t slot;
+    Key key;
+    double v[3];
+  };
+  std::int32_t served_slot(gid_t vertex) const;
+  void receive(const std::vector<std::vector<char>>& recv);
+
+  NeighbourExchange* exchange_ = nullptr;
+  std::vector<std::int32_t> nb_;                   // per slot: its owner's index among the neighbours, -1 owned
+  std::vector<gid_t> gid_;                         // per slot given to plan(): the vertex's global id
+  std::vector<char> remote_flag_;                  // per slot: owned, with contributions from other ranks now
+  std::vector<std::vector<std::int32_t>> request_; // per neighbour: our ghost slots it owns
+  std::vector<std::vector<std::int32_t>> served_;  // per neighbour: our owned slots it asked for
+  std::vector<gid_t> served_gids_;                 // sorted gids of all served vertices
+  std::vector<std::int32_t> served_slots_;         // their slots
+  std::vector<Record> remote_;                     // received contributions (one sum at a time)
+  std::vector<Contribution> merge_;                // every contribution to slots with remote ones
+};
+
+template <class KeyOf, class Emit, class Target>
+void KeyedSums::reduce(std::size_t n, KeyOf&& key, int dim, Emit&& emit, Target&& target) {
+  SC_ASSERT(dim >= 1 && dim <= 3);
+  remote_.clear();
+  const std::size_t nn = request_.size();
+  if (nn > 0) {
+    std::vector<std::vector<Record>> out(nn);
+    for (std::size_t q = 0; q < n; ++q)
+      emit(q, [&](std::int32_t k, const double* v) {
+        const std::int32_t nb = nb_[static_cast<std::size_t>(k)];
+        if (nb < 0) return;
+        Record r{gid_[static_cast<std::size_t>(k)], key(q), {0, 0, 0}};
+        for (int d = 0; d < dim; ++d) r.v[d] = v[d];
+        out[static_cast<std::size_t>(nb)].push_back(r);
+      });
+    std::vector<std::vector<char>> send(nn);
+    for (std::size_t m = 0; m < nn; ++m) append_records(send[m], out[m].data(), out[m].size());
+    receive(exchange_->exchange_bytes(send));
+  }
+  // The common case: every contribution is local and already in key order.
+  for (std::size_t q = 0; q < n; ++q)
+    emit(q, [&](std::int32_t k, const double* v) {
+      const auto s = static_cast<std::size_t>(k);
+      if (nb_[s] >= 0 || remote_flag_[s]) return;
+      double* t = target(k);
+      for (int d = 0; d < dim; ++d) t[d] += v[d];
+    });
+  if (remote_.empty()) return;
+  // Vertices with contributions from other ranks: merge theirs and ours by key.
+  merge_.clear();
+  for (std::size_t q = 0; q < n; ++q)
+    emit(q, [&](std::int32_t k, const double* v) {
+      if (!remote_flag_[static_cast<std::size_t>(k)]) return;
+      Contribution c{k, key(q), {0, 0, 0}};
+      for (int d = 0; d < dim; ++d) c.v[d] = v[d];
+      merge_.push_back(c);
+    });
+  for (const Record& r : remote_) merge_.push_back(Contribution{served_slot(r.vertex), r.key, {r.v[0], r.v[1], r.v[2]}});
+  std::sort(merge_.begin(), merge_.end(), [](const Contribution& a, const Contribution& b) {
+    return a.slot != b.slot ? a.slot < b.slot : a.key < b.key;
+  });
+  for (const Contribution& c : merge_) {
+    double* t = target(c.slot);
+    for (int d = 0; d < dim; ++d) t[d] += c.v[d];
+  }
+  for (const Contribution& c : merge_) remote_flag_[static_cast<std::size_t>(c.slot)] = 0;
+}
+
+template <class Value>
+void KeyedSums::reply(int dim, Value&& value) {
+  const std::size_t nn = request_.size();
+  if (nn == 0) return;
+  std::vector<std::vector<char>> send(nn);
+  for (std::size_t m = 0; m < nn; ++m) {
+    std::vector<double> vals;
+    vals.reserve(static_cast<std::size_t>(dim) * served_[m].size());
+    for (std::int32_t k : served_[m]) {
+      const double* v = value(k);
+      vals.insert(vals.end(), v, v + dim);
+    }
+    append_records(send[m], vals.data(), vals.size());
+  }
+  const auto recv = exchange_->exchange_bytes(send);
+  for (std::size_t m = 0; m < nn; ++m) {
+    const std::vector<double> vals = read_records<double>(recv[m]);
+    SC_ASSERT(vals.size() == static_cast<std::size_t>(dim) * request_[m].size());
+    for (std::size_t i = 0; i < request_[m].size(); ++i) {
+      double* v = value(request_[m][i]);
+      for (int d = 0; d < dim; ++d) v[d] = vals[static_cast<std::size_t>(dim) * i + static_cast<std::size_t>(d)];
+    }
+  }
+}
+
+}  // namespace softcontact
