@@ -1,10 +1,10 @@
 #!/usr/bin/python3
 """The layer rule of docs/architecture.md ("Layers"), checked on what the compiler sees.
 
-The physics folders (src/mesh, src/model, src/collide, src/contact, src/scene) may
-include the data layer and each other, never a header of the layers above them
-(src/sim, src/app, src/io, src/parallel, and the public headers those own), nor MPI or
-PETSc: the physics must build and run without a communicator. For every source file of
+The physics folders (src/mesh, src/model, src/collide, src/contact, src/scene) and the
+serial stepper (src/step) may include the data layer and each other, never a header of
+the layers above them (src/sim, src/app, src/io, src/parallel, and the public headers
+those own), nor MPI or PETSc: the physics must build and run without a communicator. For every source file of
 those folders in the build's compile_commands.json, the compiler lists the headers it
 includes, transitively (-M with the file's own flags); any forbidden one fails the check,
 with the file and the header named.
@@ -18,7 +18,7 @@ import shlex
 import subprocess
 import sys
 
-PHYSICS = re.compile(r"^src/(mesh|model|collide|contact|scene)/")
+PHYSICS = re.compile(r"^src/(mesh|model|collide|contact|scene|step)/")
 # Public headers of the upper layers (include/softcontact/): parallel, sim, io, app.
 UPPER = ("halo", "partition", "mpi_util", "simulator", "integrator", "implicit_euler", "run",
          "checkpoint", "frame_writer", "diagnostics", "memory", "bench", "cli")
@@ -67,7 +67,7 @@ def main():
     if checked == 0:
         print("check_layers: no source file of the physics folders in compile_commands.json", file=sys.stderr)
         return 2
-    print(f"check_layers: {checked} source files of src/{{mesh,model,collide,contact,scene}}, "
+    print(f"check_layers: {checked} source files of src/{{mesh,model,collide,contact,scene,step}}, "
           f"{bad} forbidden includes")
     return 1 if bad else 0
 

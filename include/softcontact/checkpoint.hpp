@@ -48,7 +48,7 @@ struct CheckpointInfo {
   std::string scene_text;         ///< the scene file's text
   std::string output_dir;         ///< the run's output directory (absolute)
   std::vector<int> partition;     ///< object -> rank
-  std::vector<ObjectBox> boxes;   ///< object boxes at this step
+  std::vector<Box> boxes;   ///< object boxes at this step
 };
 
 /// A hash of everything in a loaded scene that results depend on: meshes (positions and

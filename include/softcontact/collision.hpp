@@ -112,9 +112,10 @@ public:
 
   /// Finds every owned vertex strictly inside a tet of another object at the positions
   /// `world.x` (x~), computes the penetration vectors, and writes the records to `out`
-  /// sorted by (point_gid, triangle_gid). `x_prev_step` (n_local,3) are the positions
-  /// x^t at the start of the step, used for the tunnelling diagnostic only (may be null).
-  void detect(const World& world, const double* x_prev_step, std::vector<Collision>& out, CollisionStats& stats);
+  /// sorted by (point_gid, triangle_gid). `x_start` (n_local,3) are the positions
+  /// x^t at the start of the step, for the tunnelling diagnostic and the depth's entry
+  /// rule (null at the initial positions: neither applies).
+  void detect(const World& world, const double* x_start, std::vector<Collision>& out, CollisionStats& stats);
 
   /// Item 7 of "Penetration vectors" (docs/collision.md), after detect(): the keys of the
   /// records that can be one half of a mutual pair (vertex records between two bodies

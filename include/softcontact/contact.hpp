@@ -107,7 +107,8 @@ public:
   ContactResponse(const Scene& scene, const World& world);
 
   /// Computes the contact forces of `collisions` at the positions x~ = world.x, corrects
-  /// world.x and world.v of movable owned vertices (x_prev, holding x^t, is unchanged).
+  /// world.x and world.v of movable owned vertices; world.x_prev (x^t) moves with world.x by
+  /// the position-only part, so that position Verlet takes no velocity from it.
   /// `collisions` must be sorted by (point_gid, triangle_gid), as CollisionDetector
   /// produces them: every per-vertex sum follows that order, independent of threads and
   /// ranks. With several ranks, `collisions` are this rank's (owned points) and `exchange`
@@ -205,7 +206,7 @@ private:
   KeyedSums sums_;                                         // the per-vertex sums over ranks (keyed_sums.hpp)
   std::vector<int> slot_owner_;                            // per slot: owner rank of a ghost, -1 owned
   std::vector<gid_t> slot_gid_;                            // per slot: global vertex id
-  const double* world_x_prev_ = nullptr;                   // x^t during respond()
+  const double* x_start_ = nullptr;                        // x^t, the step's start, during respond()
   std::int64_t step_ = 0;                                  // respond() calls so far
   std::vector<double> force_, penetration_;                // n_local x 3, filled on demand
   std::vector<index_t> materialized_;                      // entries of force_ that are set

@@ -10,18 +10,11 @@
 #include <string>
 
 #include "softcontact/forces.hpp"
+#include "softcontact/phase_times.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/world.hpp"
 
 namespace softcontact {
-
-/// Wall-clock seconds spent in each phase of Algorithm 1 (method.md), per step.
-struct PhaseTimes {
-  double forces = 0, integrate = 0, detect = 0, depth = 0, contact = 0, comm = 0, output = 0;
-  PhaseTimes& operator+=(const PhaseTimes& o);
-  PhaseTimes scaled(double s) const;
-  double total() const { return forces + integrate + detect + depth + contact + comm + output; }
-};
 
 struct StepDiagnostics {
   std::int64_t step = 0;

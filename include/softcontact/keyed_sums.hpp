@@ -88,6 +88,46 @@ private:
   std::vector<Contribution> merge_;                // every contribution to slots with remote ones
 };
 
+/// One problem over every rank's rows, solved on rank 0 in key order (the coupled
+/// closure's direct solve): each rank's `rows` (in ascending key(row) order; keys unique
+/// across ranks) are gathered to rank 0, merged by key into the one-rank list,
+/// solve(all, stats) returns one value per row, and each rank gets the values of its own
+/// rows back, in its order. `stats` (trivially copyable) is rank 0's, broadcast. With no
+/// exchange: solve(rows, stats). Collective over all ranks.
+template <class Row, class KeyOf, class Solve, class Stats>
+std::vector<double> solve_in_key_order(NeighbourExchange* exchange, const std::vector<Row>& rows, KeyOf&& key,
+                                       Solve&& solve, Stats& stats) {
+  if (!exchange || exchange->ranks() == 1) return solve(rows, stats);
+  std::vector<char> mine;
+  append_records(mine, rows.data(), rows.size());
+  const std::vector<std::vector<char>> parts = exchange->gather_to_root(mine);
+  std::vector<std::vector<char>> answers;
+  if (exchange->rank() == 0) {
+    std::vector<Row> all;
+    std::vector<std::size_t> first(parts.size() + 1, 0);  // rows of rank p: [first[p], first[p + 1])
+    for (std::size_t p = 0; p < parts.size(); ++p) {
+      const std::vector<Row> r = read_records<Row>(parts[p]);
+      all.insert(all.end(), r.begin(), r.end());
+      first[p + 1] = all.size();
+    }
+    std::vector<std::int32_t> order(all.size());
+    for (std::size_t i = 0; i < all.size(); ++i) order[i] = static_cast<std::int32_t>(i);
+    std::sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
+      return key(all[static_cast<std::size_t>(a)]) < key(all[static_cast<std::size_t>(b)]);
+    });
+    std::vector<Row> sorted(all.size());
+    for (std::size_t i = 0; i < all.size(); ++i) sorted[i] = all[static_cast<std::size_t>(order[i])];
+    const std::vector<double> xo = solve(sorted, stats);
+    std::vector<double> xs(all.size());  // per row of `all`, in the order received
+    for (std::size_t i = 0; i < all.size(); ++i) xs[static_cast<std::size_t>(order[i])] = xo[i];
+    answers.resize(parts.size());
+    for (std::size_t p = 0; p < parts.size(); ++p) append_records(answers[p], xs.data() + first[p], first[p + 1] - first[p]);
+  }
+  std::vector<double> x = read_records<double>(exchange->scatter_from_root(answers, rows.size() * sizeof(double)));
+  exchange->broadcast_from_root(&stats, sizeof stats);
+  return x;
+}
+
 template <class KeyOf, class Emit, class Target>
 void KeyedSums::reduce(std::size_t n, KeyOf&& key, int dim, Emit&& emit, Target&& target) {
   SC_ASSERT(dim >= 1 && dim <= 3);

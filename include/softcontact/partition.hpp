@@ -7,12 +7,10 @@
 #include <cstdint>
 #include <vector>
 
+#include "softcontact/box.hpp"
+
 namespace softcontact {
 
-/// Axis-aligned bounding box of one object [m].
-struct ObjectBox {
-  double lo[3], hi[3];
-};
 
 struct PartitionInput {
   /// Per object: its work, >= 0 (tets; callers give kinematic objects a small weight).
@@ -20,7 +18,7 @@ struct PartitionInput {
   /// and the empty-rank rule below does not count it.
   std::vector<std::int64_t> weight;
   /// Per object: current bounding box (lo <= hi, finite).
-  std::vector<ObjectBox> box;
+  std::vector<Box> box;
   /// Objects whose boxes are at most this far apart on every axis (boxes grown by
   /// reach/2 each overlap, closed intervals: touching boxes are joined even at 0) [m].
   double reach = 0;

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "softcontact/box.hpp"
 #include "softcontact/mesh.hpp"
 
 namespace softcontact {
@@ -42,13 +43,6 @@ struct Friction {
   double mu_kinetic = 0;
 };
 
-struct AxisBox {
-  Vec3 min{}, max{};
-  bool contains(const double* x) const {
-    return x[0] >= min[0] && x[0] <= max[0] && x[1] >= min[1] && x[1] <= max[1] && x[2] >= min[2] && x[2] <= max[2];
-  }
-};
-
 /// Prescribed motion of an object's fixed vertices (all of them when the object is
 /// kinematic, else those in its `fixed` boxes): constant velocity from `start` until
 /// `stop`, standing still before and after.
@@ -70,7 +64,7 @@ struct SceneObject {
   TetMesh mesh;
   Vec3 velocity{};             ///< initial velocity of every vertex [m/s]
   bool kinematic = false;      ///< the whole object is fixed (infinite mass)
-  std::vector<AxisBox> fixed;  ///< vertices inside any of these (world coordinates) are fixed
+  std::vector<Box> fixed;    ///< vertices inside any of these (world coordinates) are fixed
   Motion motion;               ///< prescribed motion of the fixed vertices (none by default)
 };
 

@@ -1,5 +1,7 @@
 #pragma once
-// One simulation in memory: the paper's Algorithm 1 step after step (method.md),
+// One simulation in memory, on the ranks of a communicator: the parallel layer around the
+// serial core (SerialStepper, stepper.hpp, which takes the paper's Algorithm 1 on this
+// rank's World),
 //
 //   p  <- internal forces(x^t) + gravity + damping        ElasticForces
 //   x~ <- unconstrained motion                             Verlet / symplectic / implicit Euler
@@ -7,8 +9,11 @@
 //   d  <- penetration vectors(C, x~)                       CollisionDetector (consistent depth)
 //   F  <- contact forces(C, x~, d); x = x~ + dt^2 F / m    ContactResponse
 //
-// without any file output, so that tests and benchmarks drive it directly; run_scene()
-// adds frames, diagnostics and the progress line around it.
+// with the ghost objects refreshed between the phases (GhostSet, ghosts.hpp), the
+// objects repartitioned and migrated when the work drifts apart (rebalance.hpp), the
+// phases timed, and the measurements that gather over ranks. No file output, so that
+// tests and benchmarks drive it directly; run_scene() adds frames, diagnostics and the
+// progress line around it.
 #include <mpi.h>
 
 #include <cstdint>
@@ -17,8 +22,9 @@
 
 #include "softcontact/collision.hpp"
 #include "softcontact/contact.hpp"
-#include "softcontact/diagnostics.hpp"
+#include "softcontact/phase_times.hpp"
 #include "softcontact/partition.hpp"
+#include "softcontact/rebalance.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/step_state.hpp"
 #include "softcontact/surface.hpp"
@@ -29,25 +35,9 @@ namespace softcontact {
 
 class ElasticForces;
 class ImplicitEuler;
-class UnconstrainedMotion;
-class Halo;
-
-/// When a run repartitions its objects (docs/architecture.md, "Migration").
-struct RebalancePolicy {
-  std::int64_t check_every = 200;   ///< steps between checks (0: never)
-  double max_imbalance = 1.25;      ///< repartition when max/mean of the per-rank work passes this
-  double max_cross_fraction = 0.5;  ///< ... or when this fraction of the collisions crosses ranks
-};
-
-/// The partition METIS gives the scene's objects at their initial positions: nodes
-/// weighted by tets (kinematic objects by a tenth of their surface triangles), edges
-/// between objects closer than the median object size. Identical on every rank.
-std::vector<int> initial_partition(const Scene& scene, const std::vector<Surface>& surfaces, int nranks);
-
-/// The same partition at the object boxes `boxes` (objects that have moved; a box with
-/// a non-finite corner counts as a point at the origin). Identical on every rank.
-std::vector<int> partition_at(const Scene& scene, const std::vector<Surface>& surfaces, std::vector<ObjectBox> boxes,
-                              int nranks);
+class SerialStepper;
+struct StepDiagnostics;
+class GhostSet;
 
 class Simulator {
 public:
@@ -68,13 +58,13 @@ public:
   const Scene& scene() const { return scene_; }
 
   /// Collisions of the last step (after detection, before the response), sorted.
-  const std::vector<Collision>& collisions() const { return collisions_; }
-  const CollisionStats& collision_stats() const { return collision_stats_; }
-  const ContactStats& contact_stats() const { return contact_stats_; }
+  const std::vector<Collision>& collisions() const;
+  const CollisionStats& collision_stats() const;
+  const ContactStats& contact_stats() const;
   /// Contact force per local vertex of the last step, (n_local,3) [N].
-  const std::vector<double>& contact_force() { return contact_->force(); }
+  const std::vector<double>& contact_force();
   /// Sum of penetration vectors per colliding vertex of the last step, (n_local,3) [m].
-  const std::vector<double>& penetration() { return contact_->penetration(); }
+  const std::vector<double>& penetration();
 
   /// Energies, momentum, contact counts, force balance and the residual penetration (the
   /// deepest surface vertex inside another body at the corrected positions, by the
@@ -115,7 +105,7 @@ public:
   /// halo rebuilt. Collective.
   void restore(const StepState& s);
   /// Every object's box at the current positions (collective).
-  std::vector<ObjectBox> current_boxes();
+  std::vector<Box> current_boxes();
   // ---- numerical-failure guard (health.cpp, docs/reliability.md)
   /// This rank's quick check after a step, no communication: 0 fine, 1 an owned vertex
   /// moves faster than `max_speed`, 2 a non-finite position or velocity, 3 an implicit
@@ -139,7 +129,7 @@ public:
   /// Repartitions done by the rebalance policy so far.
   std::int64_t repartitions() const { return repartitions_; }
   /// Ghost-set rebuilds so far (the halo grows and shrinks as objects move).
-  std::int64_t ghost_rebuilds() const { return ghost_rebuilds_; }
+  std::int64_t ghost_rebuilds() const;
   /// Bytes this rank has received through the halo since construction.
   std::int64_t halo_bytes() const;
   /// Collisions of this rank whose triangle lies on an object of another rank, last step.
@@ -156,8 +146,7 @@ private:
 
   void build_components();
   void rebuild_ghosts(bool force);
-  void make_detector();
-  bool ghosts_stale();
+  void follow_ghosts();
   void maybe_rebalance();
 
   MPI_Comm comm_;
@@ -166,25 +155,12 @@ private:
   std::vector<Surface> surfaces_;
   std::vector<int> partition_;
   World world_;
-  std::unique_ptr<Halo> halo_;
   CollisionSettings collision_settings_;
-  double skin_ = 0;                  // ghost reach: objects closer than this are ghosted
-  double max_skin_ = 0;              // the skin's upper bound: the median object size
-  std::int64_t steps_since_ghosts_ = 0;
-  std::vector<double> x_at_ghosts_;  // owned positions when the ghost set was built
+  std::unique_ptr<GhostSet> ghosts_;  // the parallel layer's ghost objects and halo (ghosts.hpp)
   RebalancePolicy rebalance_;
-  std::int64_t repartitions_ = 0, ghost_rebuilds_ = 0, cross_collisions_ = 0;
-  std::int64_t halo_bytes_before_ = 0;  // of halos since replaced
+  std::int64_t repartitions_ = 0, cross_collisions_ = 0;
   double work_seconds_ = 0;          // forces, detection and depth seconds since the last rebalance check
-  std::unique_ptr<UnconstrainedMotion> motion_;  // forces and the integrator (motion.hpp)
-  std::unique_ptr<CollisionDetector> detector_;
-  std::unique_ptr<ContactResponse> contact_;
-  std::vector<double> f_;
-  std::vector<Collision> collisions_, residual_;
-  std::vector<RecordKey> record_keys_;  // settle_mutual's partners (this rank's and its neighbours')
-  void settle_mutual_records();
-  CollisionStats collision_stats_;
-  ContactStats contact_stats_;
+  std::unique_ptr<SerialStepper> core_;  // the step's physics on this rank's World (stepper.hpp)
   PhaseTimes times_;
   std::int64_t timed_steps_ = 0;
   std::int64_t step_ = 0;

@@ -43,7 +43,8 @@ struct World {
   std::vector<gid_t> vertex_gid;        ///< (n_local)
   std::vector<std::int32_t> vertex_object;
   std::vector<double> x;                ///< (n_local,3) positions x^t [m]
-  std::vector<double> x_prev;           ///< (n_local,3) x^(t-dt), for position Verlet
+  std::vector<double> x_prev;           ///< (n_local,3) the previous step's positions: x^(t-dt) between steps (position
+                                        ///< Verlet's second state), x^t within a step once x holds x~
   std::vector<double> v;                ///< (n_local,3) velocities [m/s]
   std::vector<double> mass;             ///< (n_local) lumped mass [kg] (finite, also for fixed vertices)
   std::vector<double> inv_mass;         ///< (n_local) 1/m, 0 for kinematic vertices

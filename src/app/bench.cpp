@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "softcontact/error.hpp"
+#include "softcontact/mpi_util.hpp"
 #include "softcontact/simulator.hpp"
 
 namespace softcontact {
@@ -119,9 +120,7 @@ void BenchResult::summarise() {
 BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt, std::ostream& log) {
   if (opt.steps < 1) throw InputError("command line: --steps expects a positive integer");
   if (opt.warmup < 0) throw InputError("command line: --warmup expects a non-negative integer");
-  int rank = 0, size = 1;
-  MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &size);
+  const int rank = comm_rank(comm), size = comm_size(comm);
 
   BenchResult r;
   r.path = scene.path;
@@ -332,8 +331,7 @@ void write_per_step_csv(std::ostream& out, const BenchResult& r) {
 
 BenchFiles::BenchFiles(MPI_Comm comm, const std::string& csv, const std::string& per_step)
     : csv_path_(csv), per_step_path_(per_step) {
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
+  const int rank = comm_rank(comm);
   std::string problem;
   if (rank == 0) {
     if (!csv.empty()) {

@@ -22,6 +22,7 @@
 #include "softcontact/error.hpp"
 #include "softcontact/fault.hpp"
 #include "softcontact/memory.hpp"
+#include "softcontact/mpi_util.hpp"
 #include "softcontact/run.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/surface.hpp"
@@ -293,7 +294,7 @@ void print_summary(const Scene& s, std::ostream& out) {
     std::size_t fixed = 0;
     for (std::size_t i = 0; i < o.mesh.num_vertices(); ++i) {
       bool f = o.kinematic;
-      for (const AxisBox& b : o.fixed) f = f || b.contains(&o.mesh.points[3 * i]);
+      for (const Box& b : o.fixed) f = f || b.contains(&o.mesh.points[3 * i]);
       fixed += f;
     }
     if (k < kShown)
@@ -317,10 +318,7 @@ void print_summary(const Scene& s, std::ostream& out) {
 
 int cmd_check(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) {
   const Scene s = load_scene(scene_argument(a, "check"));
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
-  int size = 1;
-  MPI_Comm_size(comm, &size);
+  const int rank = comm_rank(comm), size = comm_size(comm);
   const int ranks = a.values.count("--ranks") ? static_cast<int>(parse_count("--ranks", a.values.at("--ranks"), "check")) : size;
   const MemoryEstimate mem = estimate_memory(s, ranks);
   if (rank == 0) {
@@ -338,9 +336,7 @@ int cmd_check(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err
 
 int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) {
   {
-    int world_rank = 0, world_size = 1;
-    MPI_Comm_rank(MPI_COMM_WORLD, &world_rank);
-    MPI_Comm_size(MPI_COMM_WORLD, &world_size);
+    const int world_rank = comm_rank(MPI_COMM_WORLD), world_size = comm_size(MPI_COMM_WORLD);
     fault::configure(world_rank, world_size);  // the testing hook SOFTCONTACT_FAULT (docs/reliability.md)
   }
   RunOptions opt;
@@ -369,9 +365,7 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
   }
   Scene s = restarting ? load_restart(comm, a.values.at("--restart"), restart) : load_scene(scene_argument(a, "run"));
   apply_overrides(s, opt);
-  int rank = 0, size = 1;
-  MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &size);
+  const int rank = comm_rank(comm), size = comm_size(comm);
   const MemoryEstimate mem = estimate_memory(s, size);
   g_memory_estimate = mem.per_rank;
   if (rank == 0) {
@@ -424,8 +418,7 @@ int cmd_bench(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err
   if (a.values.count("--csv") && csv.empty()) usage_error("--csv expects a file name", "bench");
   if (a.values.count("--per-step") && per_step.empty()) usage_error("--per-step expects a file name", "bench");
   const Scene s = load_scene(scene_argument(a, "bench"));
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
+  const int rank = comm_rank(comm);
   if (rank == 0) print_warnings(s, err);
   BenchFiles files(comm, csv, per_step);
   const BenchResult r = run_bench(comm, s, opt, err);
@@ -464,8 +457,7 @@ int cmd_verify(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& er
     if (v->empty()) usage_error("--json expects a file name", "verify");
     opt.json = *v;
   }
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
+  const int rank = comm_rank(comm);
   int code = 0;
   std::string message;
   if (rank == 0) {
@@ -506,8 +498,7 @@ int cmd_info(std::ostream& out) {
 }
 
 int dispatch(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out, std::ostream& err) {
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
+  const int rank = comm_rank(comm);
   auto say = [&](const char* text) {
     if (rank == 0) out << text;
     return 0;
@@ -554,9 +545,7 @@ int dispatch(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out
 }  // namespace
 
 int run_cli(int argc, const char* const* argv, MPI_Comm comm, std::ostream& out, std::ostream& err) {
-  int rank = 0, size = 1;
-  MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &size);
+  const int rank = comm_rank(comm), size = comm_size(comm);
   int code = 0;
   bool input_error = false;
   std::string message;

@@ -163,16 +163,16 @@ struct CollisionDetector::Impl {
   std::vector<double> self_delta;           // per slot: distance from the best rigid motion [m]
 
   Impl(const World& w, const CollisionSettings& s, const double* rest_x);
-  void detect(const World& w, const double* x_prev, std::vector<Collision>& out, CollisionStats& st);
+  void detect(const World& w, const double* x_start, std::vector<Collision>& out, CollisionStats& st);
 
 private:
-  void scan_positions(const World& w, const double* x_prev, CollisionStats& st);
+  void scan_positions(const World& w, const double* x_start, CollisionStats& st);
   void find_partners(const double* x);
   void select_points(const World& w);
   void narrow_phase(const World& w, CollisionStats& st);
   void group_pairs(const World& w, CollisionStats& st);
   bool away_from_star(const World& w, index_t v, index_t t) const;
-  void depth(const World& w, const double* x_prev, std::vector<Collision>& out, CollisionStats& st);
+  void depth(const World& w, const double* x_start, std::vector<Collision>& out, CollisionStats& st);
 };
 
 CollisionDetector::Impl::Impl(const World& w, const CollisionSettings& s, const double* rest_x)
@@ -193,7 +193,7 @@ CollisionDetector::Impl::Impl(const World& w, const CollisionSettings& s, const 
 }
 
 // Step 0: non-finite positions and the largest step.
-void CollisionDetector::Impl::scan_positions(const World& w, const double* x_prev, CollisionStats& st) {
+void CollisionDetector::Impl::scan_positions(const World& w, const double* x_start, CollisionStats& st) {
   const std::size_t n = w.n_local();
   const double* x = w.x.data();
   bad_vertex.resize(n);
@@ -206,8 +206,8 @@ void CollisionDetector::Impl::scan_positions(const World& w, const double* x_pre
       ++c.nonfinite;
       return;
     }
-    if (x_prev) {
-      const V3 q = load(x_prev, static_cast<index_t>(v));
+    if (x_start) {
+      const V3 q = load(x_start, static_cast<index_t>(v));
       const double step = std::sqrt(norm2(p - q));
       if (step > c.max_step) c.max_step = step;  // false for a non-finite x^t: ignored
     }
@@ -401,7 +401,7 @@ void CollisionDetector::Impl::group_pairs(const World& w, CollisionStats& st) {
 }
 
 // Step 6 and 7.
-void CollisionDetector::Impl::depth(const World& w, const double* x_prev, std::vector<Collision>& out,
+void CollisionDetector::Impl::depth(const World& w, const double* x_start, std::vector<Collision>& out,
                                     CollisionStats& st) {
   const double* x = w.x.data();
   const std::size_t ngroups = group_begin.size() - 1;
@@ -423,7 +423,7 @@ void CollisionDetector::Impl::depth(const World& w, const double* x_prev, std::v
   DepthInput in;
   in.world = &w;
   in.x = x;
-  in.x_prev = x_prev;
+  in.x_start = x_start;
   in.topo = &topo;
   in.normals = normals.data();
   in.bvh = bvh.data();
@@ -490,11 +490,11 @@ void CollisionDetector::Impl::depth(const World& w, const double* x_prev, std::v
   st.collisions = static_cast<std::int64_t>(out.size());
 }
 
-void CollisionDetector::Impl::detect(const World& w, const double* x_prev, std::vector<Collision>& out,
+void CollisionDetector::Impl::detect(const World& w, const double* x_start, std::vector<Collision>& out,
                                      CollisionStats& st) {
   st = CollisionStats{};
   const auto t0 = std::chrono::steady_clock::now();
-  scan_positions(w, x_prev, st);
+  scan_positions(w, x_start, st);
   if (settings.self_collisions) {
     culling.update(w.x.data(), topo, bad_vertex.data(), self_active, self_delta);
     if (!settings.self_culling) self_active.assign(topo.objects.size(), 1);
@@ -508,7 +508,7 @@ void CollisionDetector::Impl::detect(const World& w, const double* x_prev, std::
   group_pairs(w, st);
   st.detection_seconds = seconds_since(t0);
   const auto t1 = std::chrono::steady_clock::now();
-  depth(w, x_prev, out, st);
+  depth(w, x_start, out, st);
   st.depth_seconds = seconds_since(t1);
 }
 
@@ -518,9 +518,9 @@ CollisionDetector::~CollisionDetector() = default;
 CollisionDetector::CollisionDetector(CollisionDetector&&) noexcept = default;
 CollisionDetector& CollisionDetector::operator=(CollisionDetector&&) noexcept = default;
 
-void CollisionDetector::detect(const World& world, const double* x_prev_step, std::vector<Collision>& out,
+void CollisionDetector::detect(const World& world, const double* x_start, std::vector<Collision>& out,
                                CollisionStats& stats) {
-  impl_->detect(world, x_prev_step, out, stats);
+  impl_->detect(world, x_start, out, stats);
 }
 
 void CollisionDetector::record_keys(const World& world, const std::vector<Collision>& records,

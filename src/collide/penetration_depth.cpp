@@ -105,8 +105,8 @@ index_t ray_triangle(const DepthInput& in, std::int32_t b, index_t tet, const V3
 // first, when it crosses an odd number of times. False when it does not apply.
 bool entry_point(const DepthInput& in, std::int32_t b, index_t i, const V3& xi, DepthCounters& c, DepthScratch& s,
                  const SkipVertices& skip, index_t& triangle, V3& d, std::array<double, 3>& weight) {
-  if (!in.x_prev) return false;
-  const V3 xp = load(in.x_prev, i);
+  if (!in.x_start) return false;
+  const V3 xp = load(in.x_start, i);
   if (norm2(xp - xi) <= in.tiny * in.tiny) return false;
   s.hits.clear();
   in.bvh[b].segment_hits(in.x, in.world->triangles.data(), xi, xp, s.hits, c.degenerate, skip);
@@ -127,8 +127,8 @@ bool entry_point(const DepthInput& in, std::int32_t b, index_t i, const V3& xi, 
 // x^t_i farther from B's surface than x~_i from that triangle (it did not rest there).
 bool resting_point(const DepthInput& in, std::int32_t b, index_t i, const V3& xi, DepthCounters& c,
                    const SkipVertices& skip, index_t& triangle, V3& d, std::array<double, 3>& weight) {
-  if (!in.x_prev) return false;
-  const V3 xp = load(in.x_prev, i);
+  if (!in.x_start) return false;
+  const V3 xp = load(in.x_start, i);
   const index_t* tri = in.world->triangles.data();
   const SurfaceBvh::Nearest nr = in.bvh[b].nearest(in.x, tri, xp, c.degenerate, skip);
   if (nr.triangle < 0) return false;

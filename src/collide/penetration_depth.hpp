@@ -59,7 +59,7 @@ struct InsidePoint {
 struct DepthInput {
   const World* world = nullptr;            ///< gids, objects, tets, triangles
   const double* x = nullptr;               ///< x~ (n,3) [m]
-  const double* x_prev = nullptr;          ///< x^t (n,3) [m], for the entry rule; may be null
+  const double* x_start = nullptr;         ///< x^t, the step's start (n,3) [m], for the entry rule; may be null
   const CollisionTopology* topo = nullptr;
   const double* normals = nullptr;         ///< (n,3) smoothed vertex normals, valid on B's surface
   const SurfaceBvh* bvh = nullptr;         ///< per slot, refitted to x~ for B

@@ -228,8 +228,8 @@ std::int64_t ContactResponse::normal_coefficients(const std::vector<Collision>& 
 // collisions together, so that every gap closes by its applied depth when all
 // corrections act at once. The rows carry global ids and the collisions' keys; with
 // several ranks they are gathered to rank 0, merged in key order (the order of the one-
-// rank list), solved there and the magnitudes sent back: the same matrix and the same
-// arithmetic on any rank count. Friction keeps the per-collision coefficients (fa, faT)
+// rank list), solved there and the magnitudes sent back (solve_in_key_order,
+// keyed_sums.hpp): the same matrix and the same arithmetic on any rank count. Friction keeps the per-collision coefficients (fa, faT)
 // for its stopping forces; Coulomb's cone takes the coupled normal force.
 void ContactResponse::coupled_coefficients(const std::vector<Collision>& col, double dt, NeighbourExchange* exchange, ContactStats& stats) {
   const std::size_t nc = col.size();
@@ -255,47 +255,12 @@ void ContactResponse::coupled_coefficients(const std::vector<Collision>& col, do
     if (L.slot2 >= 0) add(L.slot2, 1 - L.pw);
   }
   contact::ClosureStats cs;
-  std::vector<double> x;
-  const int nranks = exchange ? exchange->ranks() : 1;
-  if (nranks == 1) {
-    x = contact::solve_closure(rows, kClosureEps, cs);
-  } else {
-    std::vector<char> mine;
-    append_records(mine, rows.data(), rows.size());
-    const std::vector<std::vector<char>> parts = exchange->gather_to_root(mine);
-    std::vector<std::vector<char>> answers;
-    if (exchange->rank() == 0) {
-      // Each rank's rows are in key order and the keys are unique across ranks: sorted
-      // by key, the rows are the one-rank list.
-      std::vector<contact::ClosureRow> all;
-      std::vector<std::size_t> first(parts.size() + 1, 0);  // rows of rank p: [first[p], first[p + 1])
-      for (std::size_t p = 0; p < parts.size(); ++p) {
-        const std::vector<contact::ClosureRow> r = read_records<contact::ClosureRow>(parts[p]);
-        all.insert(all.end(), r.begin(), r.end());
-        first[p + 1] = all.size();
-      }
-      std::vector<std::int32_t> order(all.size());
-      for (std::size_t i = 0; i < all.size(); ++i) order[i] = static_cast<std::int32_t>(i);
-      std::sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
-        const auto& ra = all[static_cast<std::size_t>(a)];
-        const auto& rb = all[static_cast<std::size_t>(b)];
-        return KeyedSums::Key{ra.key_point, ra.key_triangle} < KeyedSums::Key{rb.key_point, rb.key_triangle};
-      });
-      std::vector<contact::ClosureRow> sorted(all.size());
-      for (std::size_t i = 0; i < all.size(); ++i) sorted[i] = all[static_cast<std::size_t>(order[i])];
-      const std::vector<double> xo = contact::solve_closure(sorted, kClosureEps, cs);
-      std::vector<double> xs(all.size());  // per row of `all`, in the order received
-      for (std::size_t i = 0; i < all.size(); ++i) xs[static_cast<std::size_t>(order[i])] = xo[i];
-      answers.resize(parts.size());
-      for (std::size_t p = 0; p < parts.size(); ++p) append_records(answers[p], xs.data() + first[p], first[p + 1] - first[p]);
-    }
-    x = read_records<double>(exchange->scatter_from_root(answers, nc * sizeof(double)));
-    std::int64_t st[3] = {cs.rows, cs.dropped, cs.local};
-    exchange->broadcast_from_root(st, sizeof st);
-    cs.rows = st[0];
-    cs.dropped = st[1];
-    cs.local = st[2];
-  }
+  const std::vector<double> x = solve_in_key_order(
+      exchange, rows, [](const contact::ClosureRow& r) { return KeyedSums::Key{r.key_point, r.key_triangle}; },
+      [](const std::vector<contact::ClosureRow>& all, contact::ClosureStats& st) {
+        return contact::solve_closure(all, kClosureEps, st);
+      },
+      cs);
   stats.closure_rows = cs.rows;
   stats.closure_dropped = cs.dropped;
   stats.closure_local = cs.local;
@@ -328,7 +293,7 @@ void ContactResponse::friction_coefficients(const std::vector<Collision>& col, C
   // which equals the in-step motion when i started the step on its anchor, and otherwise
   // also undoes the slip left over from earlier steps (within the same cone).
   auto corrected = [&](std::int32_t k, index_t v, int d) {
-    return world_x_prev_[3 * static_cast<std::size_t>(v) + static_cast<std::size_t>(d)] +
+    return x_start_[3 * static_cast<std::size_t>(v) + static_cast<std::size_t>(d)] +
            slots_[static_cast<std::size_t>(k)].dx[d];
   };
   const std::ptrdiff_t nc = static_cast<std::ptrdiff_t>(col.size());
@@ -436,7 +401,7 @@ void ContactResponse::respond(World& w, const std::vector<Collision>& col, doubl
     penetration_.resize(3 * w.n_local(), 0.0);
   }
   if (anchor_.size() != w.n_owned) anchor_.assign(w.n_owned, StictionAnchor{});
-  world_x_prev_ = w.x_prev.data();
+  x_start_ = w.x_prev.data();
 
   // Slots in order of first appearance in the sorted collision list (a fixed order),
   // then the vertices of valid anchors.

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "softcontact/error.hpp"
+#include "softcontact/mpi_util.hpp"
 
 namespace softcontact {
 
@@ -69,7 +70,7 @@ MemoryLimits memory_limits(MPI_Comm comm) {
   if (getrlimit(RLIMIT_AS, &r) == 0 && r.rlim_cur != RLIM_INFINITY) m.address_space = static_cast<double>(r.rlim_cur);
   MPI_Comm node;
   MPI_Comm_split_type(comm, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
-  MPI_Comm_size(node, &m.ranks_on_node);
+  m.ranks_on_node = comm_size(node);
   MPI_Comm_free(&node);
   m.node_available = meminfo_field("MemAvailable");
   if (m.node_available <= 0) m.node_available = meminfo_field("MemTotal");
@@ -103,9 +104,7 @@ void check_memory_fits(MPI_Comm comm, const MemoryEstimate& e, const std::string
   int bad = why.empty() ? 0 : 1;
   MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
   if (!bad) return;
-  int rank = 0, size = 1;
-  MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &size);
+  const int rank = comm_rank(comm), size = comm_size(comm);
   int first = why.empty() ? size : rank;
   MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_INT, MPI_MIN, comm);
   long long len = static_cast<long long>(why.size());

@@ -55,7 +55,7 @@ void append_object(World& w, const Scene& scene, const Surface& s, int k) {
   for (std::size_t i = 0; i < m.num_vertices(); ++i) {
     const double* p = &m.points[3 * i];
     bool fixed = o.kinematic;
-    for (const AxisBox& b : o.fixed) fixed = fixed || b.contains(p);
+    for (const Box& b : o.fixed) fixed = fixed || b.contains(p);
     w.vertex_gid.push_back(L.vertex_begin + static_cast<gid_t>(i));
     w.vertex_object.push_back(k);
     w.mass.push_back(mass[i]);

@@ -10,6 +10,7 @@
 #include "h5_util.hpp"
 #include "softcontact/error.hpp"
 #include "softcontact/fault.hpp"
+#include "softcontact/mpi_util.hpp"
 
 namespace softcontact {
 
@@ -74,9 +75,7 @@ std::string resolve_checkpoint(const std::string& path) {
 
 void write_checkpoint(MPI_Comm comm, const std::string& path, const World& w, const StepState& state,
                       CheckpointInfo info) {
-  int rank = 0, size = 1;
-  MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &size);
+  const int rank = comm_rank(comm), size = comm_size(comm);
   info.format = kFormat;
   info.step = state.step;
   info.ranks = size;
@@ -122,7 +121,7 @@ void write_checkpoint(MPI_Comm comm, const std::string& path, const World& w, co
   const std::vector<GidRun> mine = rank == 0 ? h5::all_rows(nobj) : std::vector<GidRun>{};
   std::vector<std::int32_t> part(info.partition.begin(), info.partition.end());
   std::vector<double> boxes;
-  for (const ObjectBox& b : info.boxes)
+  for (const Box& b : info.boxes)
     boxes.insert(boxes.end(), {b.lo[0], b.lo[1], b.lo[2], b.hi[0], b.hi[1], b.hi[2]});
   h5::write_rows(run, "partition", nobj, 1, mine, part.data());
   h5::write_rows(run, "boxes", nobj, 6, mine, boxes.data());
@@ -189,8 +188,7 @@ private:
 }  // namespace
 
 CheckpointInfo read_checkpoint_info(MPI_Comm comm, const std::string& path) {
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
+  const int rank = comm_rank(comm);
   std::vector<char> buf;
   std::string error;
   if (rank == 0) {
@@ -208,7 +206,7 @@ CheckpointInfo read_checkpoint_info(MPI_Comm comm, const std::string& path) {
       pack(buf, i.output_dir);
       pack(buf, i.partition.size());
       for (int p : i.partition) pack(buf, p);
-      for (const ObjectBox& b : i.boxes) pack(buf, b);
+      for (const Box& b : i.boxes) pack(buf, b);
     } catch (const InputError& e) {
       error = e.what();
     }
@@ -240,7 +238,7 @@ CheckpointInfo read_checkpoint_info(MPI_Comm comm, const std::string& path) {
   i.partition.resize(no);
   i.boxes.resize(no);
   for (int& p : i.partition) u.get(p);
-  for (ObjectBox& b : i.boxes) u.get(b);
+  for (Box& b : i.boxes) u.get(b);
   return i;
 }
 

@@ -63,9 +63,9 @@ std::uint64_t scene_fingerprint(const Scene& scene) {
     f.vector(o.mesh.points);
     f.vector(o.mesh.tets);
     f.value(o.fixed.size());
-    for (const AxisBox& b : o.fixed) {
-      f.value(b.min);
-      f.value(b.max);
+    for (const Box& b : o.fixed) {
+      f.value(b.lo);
+      f.value(b.hi);
     }
     f.value(o.motion.velocity);
     f.value(o.motion.start);
@@ -135,7 +135,7 @@ CheckpointInfo read_run_checked(hid_t file, const std::string& path) {
       for (int c = 0; c < 3; ++c)
         if (!std::isfinite(b[c]) || !std::isfinite(b[3 + c]) || b[c] > b[3 + c])
           throw RuntimeFailure("the box of object " + std::to_string(k) + " in /run/boxes is not finite or inside out");
-      info.boxes.push_back(ObjectBox{{b[0], b[1], b[2]}, {b[3], b[4], b[5]}});
+      info.boxes.push_back(Box{{b[0], b[1], b[2]}, {b[3], b[4], b[5]}});
     }
     const gid_t chars = rows_within_file(run, "scene", 1, file_bytes);
     info.scene_text.assign(static_cast<std::size_t>(chars), '\0');

@@ -7,23 +7,9 @@
 
 #include "h5_util.hpp"
 #include "softcontact/error.hpp"
+#include "softcontact/mpi_util.hpp"
 
 namespace softcontact {
-
-PhaseTimes& PhaseTimes::operator+=(const PhaseTimes& o) {
-  forces += o.forces;
-  integrate += o.integrate;
-  detect += o.detect;
-  depth += o.depth;
-  contact += o.contact;
-  comm += o.comm;
-  output += o.output;
-  return *this;
-}
-
-PhaseTimes PhaseTimes::scaled(double s) const {
-  return {forces * s, integrate * s, detect * s, depth * s, contact * s, comm * s, output * s};
-}
 
 void reduce_mechanics(MPI_Comm comm, const Scene& scene, const World& w, StepDiagnostics& d,
                       const ElasticMeasures* elastic, const double* contact_force) {
@@ -56,9 +42,7 @@ void reduce_mechanics(MPI_Comm comm, const Scene& scene, const World& w, StepDia
       mine[K * k + 5] = elastic->energy[k];
       mine[K * k + 6] = static_cast<double>(elastic->inverted[k]);
     }
-  int rank = 0, size = 1;
-  MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &size);
+  const int rank = comm_rank(comm), size = comm_size(comm);
   const int count = static_cast<int>(mine.size());
   std::vector<int> counts(size), displs(size);
   MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm);

@@ -11,6 +11,7 @@
 #include "h5_util.hpp"
 #include "softcontact/error.hpp"
 #include "softcontact/fault.hpp"
+#include "softcontact/mpi_util.hpp"
 
 namespace softcontact {
 
@@ -29,7 +30,7 @@ using frames::kMeshFile;
 FrameWriter::FrameWriter(MPI_Comm comm, const std::string& h5_path, const std::string& xdmf_path, const Scene& scene,
                          const World& w)
     : comm_(comm), h5_path_(h5_path), xdmf_path_(xdmf_path), nv_(w.global_vertices), nt_(w.global_tets) {
-  MPI_Comm_rank(comm_, &rank_);
+  rank_ = comm_rank(comm_);
   dir_ = std::filesystem::path(h5_path).parent_path().string();
   if (dir_.empty()) dir_ = ".";
   if (rank_ == 0) {
@@ -79,7 +80,7 @@ FrameWriter::FrameWriter(MPI_Comm comm, const std::string& h5_path, const std::s
 FrameWriter::FrameWriter(MPI_Comm comm, const std::string& h5_path, const std::string& xdmf_path, const World& w,
                          std::int64_t last_step)
     : comm_(comm), h5_path_(h5_path), xdmf_path_(xdmf_path), nv_(w.global_vertices), nt_(w.global_tets) {
-  MPI_Comm_rank(comm_, &rank_);
+  rank_ = comm_rank(comm_);
   dir_ = std::filesystem::path(h5_path).parent_path().string();
   if (dir_.empty()) dir_.assign(1, '.');  // not = ".": GCC 12 warns falsely (-Wrestrict) here
   // Rank 0 reads the directory; an InputError there (mesh.h5 missing or another mesh)

@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "softcontact/error.hpp"
+#include "softcontact/mpi_util.hpp"
 
 namespace softcontact::h5 {
 
@@ -239,8 +240,7 @@ bool sync_file(const std::string& path) {
 }  // namespace
 
 void publish(MPI_Comm comm, const std::string& tmp, const std::string& path, bool sync) {
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
+  const int rank = comm_rank(comm);
   MPI_Barrier(comm);  // every rank has closed the file
   int ok = 1;
   std::string why;

@@ -5,6 +5,7 @@
 #include <algorithm>
 
 #include "softcontact/error.hpp"
+#include "softcontact/mpi_util.hpp"
 
 namespace softcontact {
 
@@ -28,8 +29,8 @@ std::vector<index_t> owner_vertex_offsets(const World& w) {
 }
 
 Halo::Halo(MPI_Comm comm, const World& w) : comm_(comm) {
-  MPI_Comm_rank(comm_, &rank_);
-  MPI_Comm_size(comm_, &ranks_);
+  rank_ = comm_rank(comm_);
+  ranks_ = comm_size(comm_);
   MPI_Type_contiguous(3, MPI_DOUBLE, &xyz_type_);
   MPI_Type_commit(&xyz_type_);
   const std::vector<index_t> owner_off = owner_vertex_offsets(w);

@@ -37,7 +37,7 @@ void validate(const PartitionInput& in) {
     if (in.weight[k] < 0) fail("object " + std::to_string(k) + " has negative weight " + std::to_string(in.weight[k]));
     if (in.weight[k] > std::numeric_limits<std::int64_t>::max() / 2 - total) fail("the total weight overflows");
     total += in.weight[k];
-    const ObjectBox& b = in.box[k];
+    const Box& b = in.box[k];
     for (int a = 0; a < 3; ++a)
       if (!std::isfinite(b.lo[a]) || !std::isfinite(b.hi[a]) || b.lo[a] > b.hi[a])
         fail("object " + std::to_string(k) + " has a non-finite or inverted bounding box");
@@ -45,7 +45,7 @@ void validate(const PartitionInput& in) {
 }
 
 // Per-axis distance between two closed intervals (0 when they touch or overlap).
-double axis_gap(const ObjectBox& a, const ObjectBox& b, int axis) {
+double axis_gap(const Box& a, const Box& b, int axis) {
   return std::max({0.0, b.lo[axis] - a.hi[axis], a.lo[axis] - b.hi[axis]});
 }
 
@@ -53,9 +53,7 @@ double axis_gap(const ObjectBox& a, const ObjectBox& b, int axis) {
 std::vector<std::int32_t> sorted_by_lo(const PartitionInput& in, int axis) {
   std::vector<std::int32_t> order(in.box.size());
   std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](std::int32_t a, std::int32_t b) {
-    return in.box[a].lo[axis] < in.box[b].lo[axis] || (in.box[a].lo[axis] == in.box[b].lo[axis] && a < b);
-  });
+  sort_for_sweep(in.box, order, axis);
   return order;
 }
 
@@ -243,18 +241,14 @@ std::vector<ObjectEdge> object_graph_edges(const PartitionInput& in) {
   }
 
   std::vector<ObjectEdge> edges;
-  for (std::size_t p = 0; p < order.size(); ++p) {
-    const ObjectBox& a = in.box[order[p]];
-    for (std::size_t q = p + 1; q < order.size(); ++q) {
-      const ObjectBox& b = in.box[order[q]];
-      if (b.lo[axis] - a.hi[axis] > in.reach) break;  // lo ascending: no later box is nearer
-      const double gap = std::max({axis_gap(a, b, 0), axis_gap(a, b, 1), axis_gap(a, b, 2)});
-      if (gap > in.reach) continue;
-      const double closeness = in.reach > 0 ? 1.0 - gap / in.reach : 1.0;
-      const auto w = static_cast<std::int32_t>(1 + std::lround(100.0 * closeness));
-      edges.push_back({std::min(order[p], order[q]), std::max(order[p], order[q]), w});
-    }
-  }
+  sweep_pairs(in.box, order, axis, in.reach, [&](std::int32_t p, std::int32_t q) {
+    const Box& a = in.box[static_cast<std::size_t>(p)];
+    const Box& b = in.box[static_cast<std::size_t>(q)];
+    const double gap = std::max({axis_gap(a, b, 0), axis_gap(a, b, 1), axis_gap(a, b, 2)});
+    const double closeness = in.reach > 0 ? 1.0 - std::min(gap, in.reach) / in.reach : 1.0;
+    const auto w = static_cast<std::int32_t>(1 + std::lround(100.0 * closeness));
+    edges.push_back({std::min(p, q), std::max(p, q), w});
+  });
   std::sort(edges.begin(), edges.end(),
             [](const ObjectEdge& x, const ObjectEdge& y) { return x.i < y.i || (x.i == y.i && x.j < y.j); });
   return edges;

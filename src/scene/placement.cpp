@@ -65,13 +65,9 @@ Sphere bounding_sphere(const TetMesh& m) {
   return s;
 }
 
-AxisBox bounding_box(const TetMesh& m) {
-  AxisBox b{{HUGE_VAL, HUGE_VAL, HUGE_VAL}, {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL}};
-  for (std::size_t i = 0; i < m.num_vertices(); ++i)
-    for (int d = 0; d < 3; ++d) {
-      b.min[d] = std::min(b.min[d], m.points[3 * i + d]);
-      b.max[d] = std::max(b.max[d], m.points[3 * i + d]);
-    }
+Box bounding_box(const TetMesh& m) {
+  Box b = Box::none();
+  for (std::size_t i = 0; i < m.num_vertices(); ++i) b.add(&m.points[3 * i]);
   return b;
 }
 
@@ -85,11 +81,11 @@ class BoxIndex {
 public:
   BoxIndex(const Vec3& origin, double cell) : origin_(origin), cell_(cell) {}
 
-  void add(const AxisBox& b) {
+  void add(const Box& b) {
     const std::size_t id = boxes_.size();
     boxes_.push_back(b);
     std::array<std::int64_t, 3> lo{}, hi{};
-    if (!cells_of(b.min, b.max, lo, hi) || span(lo, hi) > kMaxCellsPerBox) {
+    if (!cells_of(b.lo, b.hi, lo, hi) || span(lo, hi) > kMaxCellsPerBox) {
       big_.push_back(id);
       return;
     }
@@ -101,10 +97,10 @@ public:
   /// Whether the ball of radius r about c reaches into (strictly overlaps) a box.
   bool reaches(const Vec3& c, double r) const {
     const auto hits = [&](std::size_t id) {
-      const AxisBox& b = boxes_[id];
+      const Box& b = boxes_[id];
       double d2 = 0;  // squared distance from c to the box
       for (int k = 0; k < 3; ++k) {
-        const double e = std::max({b.min[k] - c[k], 0.0, c[k] - b.max[k]});
+        const double e = std::max({b.lo[k] - c[k], 0.0, c[k] - b.hi[k]});
         d2 += e * e;
       }
       return d2 < r * r;
@@ -155,7 +151,7 @@ private:
 
   Vec3 origin_;
   double cell_;
-  std::vector<AxisBox> boxes_;
+  std::vector<Box> boxes_;
   std::vector<std::size_t> big_;
   std::unordered_map<Cell, std::vector<std::size_t>, CellHash> grid_;
 };
@@ -219,10 +215,10 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects) {
       // placed so far (boxes rather than spheres for those: the bounding sphere of a
       // wide floor plate would cover the whole region above it).
       const Sphere own = bounding_sphere(base);
-      BoxIndex placed(spec.region.min, 2 * own.r);
+      BoxIndex placed(spec.region.lo, 2 * own.r);
       for (const auto& o : objects) placed.add(bounding_box(o.mesh));
       for (int d = 0; d < 3; ++d)
-        if (spec.region.max[d] - spec.region.min[d] < 2 * own.r) {
+        if (spec.region.hi[d] - spec.region.lo[d] < 2 * own.r) {
           std::ostringstream s;
           s << "the 'random.region' is narrower than one copy (bounding diameter " << 2 * own.r
             << " m) along axis " << "xyz"[d];
@@ -245,7 +241,7 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects) {
           }
           Vec3 c;
           for (int d = 0; d < 3; ++d)
-            c[d] = spec.region.min[d] + own.r + unit(gen) * (spec.region.max[d] - spec.region.min[d] - 2 * own.r);
+            c[d] = spec.region.lo[d] + own.r + unit(gen) * (spec.region.hi[d] - spec.region.lo[d] - 2 * own.r);
           const Mat3 R = spec.random_rotate ? random_rotation(gen) : identity;
           if (placed.reaches(c, own.r)) continue;
           // rotate about the copy's own centre, then move the centre to c

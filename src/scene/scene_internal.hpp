@@ -26,13 +26,13 @@ struct EntrySpec {
   Vec3 translate{};
   Vec3 velocity{};
   bool kinematic = false;
-  std::vector<AxisBox> fixed;
+  std::vector<Box> fixed;
   Motion motion;
   Instancing instancing = Instancing::single;
   std::array<int, 3> grid_count{1, 1, 1};
   Vec3 grid_spacing{};
   int random_count = 0;
-  AxisBox region;
+  Box region;
   std::uint64_t seed = 1;
   bool random_rotate = false;
 };

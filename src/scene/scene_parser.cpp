@@ -574,9 +574,9 @@ void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const 
     if (const auto f = n["fixed"]) {
       auto one = [&](const YAML::Node& b) {
         r.check_keys(b, {"min", "max"}, "'fixed' box of " + where);
-        AxisBox box{r.vec3(r.require(b, "min", "'fixed'"), "'fixed.min'"), r.vec3(r.require(b, "max", "'fixed'"), "'fixed.max'")};
+        Box box{r.vec3(r.require(b, "min", "'fixed'"), "'fixed.min'"), r.vec3(r.require(b, "max", "'fixed'"), "'fixed.max'")};
         for (int d = 0; d < 3; ++d)
-          if (box.min[d] > box.max[d]) r.fail(b, "'fixed' box of " + where + " has min > max");
+          if (box.lo[d] > box.hi[d]) r.fail(b, "'fixed' box of " + where + " has min > max");
         spec.fixed.push_back(box);
       };
       if (f.IsSequence())
@@ -611,7 +611,7 @@ void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const 
         r.check_keys(reg, {"min", "max"}, "'random.region'");
         spec.region = {r.vec3(r.require(reg, "min", "'region'"), "'region.min'"), r.vec3(r.require(reg, "max", "'region'"), "'region.max'")};
         for (int d = 0; d < 3; ++d)
-          if (spec.region.min[d] > spec.region.max[d]) r.fail(reg, "'random.region' has min > max");
+          if (spec.region.lo[d] > spec.region.hi[d]) r.fail(reg, "'random.region' has min > max");
         spec.seed = rnd["seed"] ? static_cast<std::uint64_t>(r.integer(rnd["seed"], "'random.seed'", 0, std::numeric_limits<std::int64_t>::max())) : 1;
         spec.random_rotate = rnd["rotate"] ? r.boolean(rnd["rotate"], "'random.rotate'") : false;
         spec.instancing = EntrySpec::Instancing::random;

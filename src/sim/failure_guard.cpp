@@ -9,6 +9,7 @@
 #include "softcontact/error.hpp"
 #include "softcontact/forces.hpp"
 #include "softcontact/frame_writer.hpp"
+#include "softcontact/diagnostics.hpp"
 #include "softcontact/simulator.hpp"
 
 namespace softcontact {

@@ -11,6 +11,7 @@
 #include "softcontact/motion.hpp"
 #include "softcontact/mpi_util.hpp"
 #include "softcontact/simulator.hpp"
+#include "softcontact/stepper.hpp"
 
 namespace softcontact {
 
@@ -103,7 +104,7 @@ std::string describe_on(MPI_Comm comm, int owner, const Scene& scene, const Worl
 
 int Simulator::local_health(double max_speed) const {
   const World& w = world_;
-  if (motion_->implicit() && motion_->implicit()->failed_object() >= 0) return 3;
+  if (core_->motion().implicit() && core_->motion().implicit()->failed_object() >= 0) return 3;
   const double limit2 = max_speed * max_speed;
   int code = 0;
   for (std::size_t i = 0; i < w.n_owned; ++i) {
@@ -120,12 +121,12 @@ std::string Simulator::diagnose(int code, double max_speed) {
   if (code >= 3) {
     // A failed implicit solve: the lowest failed object of all ranks, told by its owner
     // (the same message on any number of ranks).
-    int object = motion_->implicit() && motion_->implicit()->failed_object() >= 0 ? motion_->implicit()->failed_object()
+    int object = core_->motion().implicit() && core_->motion().implicit()->failed_object() >= 0 ? core_->motion().implicit()->failed_object()
                                                               : static_cast<int>(scene_.objects.size());
     const int mine = object;
     MPI_Allreduce(MPI_IN_PLACE, &object, 1, MPI_INT, MPI_MIN, comm_);
     const int owner = owner_of(comm_, mine == object);
-    return from_rank(comm_, owner, rank_ == owner ? motion_->implicit()->failure() : std::string());
+    return from_rank(comm_, owner, rank_ == owner ? core_->motion().implicit()->failure() : std::string());
   }
   if (code >= 2) {
     auto [gid, local] = lowest(w, [&](std::size_t i) { return !finite3(&w.x[3 * i]) || !finite3(&w.v[3 * i]); });

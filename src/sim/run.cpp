@@ -100,8 +100,7 @@ void apply_overrides(Scene& scene, const RunOptions& opt) {
 }
 
 void check_output_dir(MPI_Comm comm, const std::string& dir, bool overwrite) {
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
+  const int rank = comm_rank(comm);
   int status = 0;  // 0 ok, 1 exists, 2 not a directory
   if (rank == 0) {
     std::error_code ec;

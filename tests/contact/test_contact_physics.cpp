@@ -7,6 +7,7 @@
 #include <cstdio>
 
 #include "contact_scenes.hpp"
+#include "softcontact/diagnostics.hpp"
 
 using namespace softcontact;
 using namespace softcontact::test;

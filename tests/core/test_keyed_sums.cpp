@@ -9,6 +9,7 @@
 #include <array>
 #include <barrier>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <random>
 #include <stdexcept>
@@ -47,11 +48,30 @@ public:
   }
   int rank() const override { return rank_; }
   int ranks() const override { return s_.ranks; }
-  std::vector<std::vector<char>> gather_to_root(const std::vector<char>&) override { throw std::logic_error("unused"); }
-  std::vector<char> scatter_from_root(const std::vector<std::vector<char>>&, std::size_t) override {
-    throw std::logic_error("unused");
+  std::vector<std::vector<char>> gather_to_root(const std::vector<char>& mine) override {
+    s_.box[idx(rank_, 0)] = mine;
+    s_.sync.arrive_and_wait();
+    std::vector<std::vector<char>> all;
+    if (rank_ == 0)
+      for (int r = 0; r < s_.ranks; ++r) all.push_back(s_.box[idx(r, 0)]);
+    s_.sync.arrive_and_wait();
+    return all;
   }
-  void broadcast_from_root(void*, std::size_t) override { throw std::logic_error("unused"); }
+  std::vector<char> scatter_from_root(const std::vector<std::vector<char>>& parts, std::size_t my_bytes) override {
+    if (rank_ == 0)
+      for (int r = 0; r < s_.ranks; ++r) s_.box[idx(0, r)] = parts[static_cast<std::size_t>(r)];
+    s_.sync.arrive_and_wait();
+    std::vector<char> mine = s_.box[idx(0, rank_)];
+    s_.sync.arrive_and_wait();
+    if (mine.size() != my_bytes) throw std::logic_error("scatter: wrong size");
+    return mine;
+  }
+  void broadcast_from_root(void* data, std::size_t bytes) override {
+    if (rank_ == 0) s_.box[0].assign(static_cast<char*>(data), static_cast<char*>(data) + bytes);
+    s_.sync.arrive_and_wait();
+    if (rank_ != 0) std::memcpy(data, s_.box[0].data(), bytes);
+    s_.sync.arrive_and_wait();
+  }
 
 private:
   std::size_t idx(int from, int to) const { return static_cast<std::size_t>(from * s_.ranks + to); }
@@ -177,5 +197,55 @@ TEST(KeyedSums, AnySplitOverRanksGivesTheOneRankSums) {
         for (int d = 0; d < 3; ++d)
           EXPECT_EQ(s.first[d], ref.at(g).first[d]) << "ranks " << ranks << " rank " << r << " vertex " << g;
       }
+  }
+}
+
+// solve_in_key_order: rank 0 sees every rank's rows merged into the one-rank key order,
+// and each rank gets the value of each of its rows back in its own order.
+TEST(KeyedSums, SolveInKeyOrderSeesTheOneRankListOnAnySplit) {
+  struct Row {
+    KeyedSums::Key key;
+    double payload;
+  };
+  std::vector<Row> rows;  // keys (p, t) for p < 30, t < 2, in key order
+  for (Gid p = 0; p < 30; ++p)
+    for (Gid t = 0; t < 2; ++t) rows.push_back({{p, 5 + t}, static_cast<double>(7 * p + t)});
+  auto key = [](const Row& r) { return r.key; };
+  // The "solve": the row's position in the list it is given, plus its payload / 1000;
+  // the stats count the rows.
+  auto solve = [](const std::vector<Row>& all, std::int64_t& count) {
+    std::vector<double> x;
+    for (std::size_t i = 0; i < all.size(); ++i) x.push_back(static_cast<double>(i) + all[i].payload / 1000);
+    count = static_cast<std::int64_t>(all.size());
+    return x;
+  };
+  std::int64_t one_count = 0;
+  const std::vector<double> ref = solve_in_key_order(nullptr, rows, key, solve, one_count);
+  ASSERT_EQ(one_count, 60);
+  for (int ranks : {2, 3}) {
+    std::vector<std::vector<Row>> part(static_cast<std::size_t>(ranks));
+    std::vector<std::vector<std::size_t>> at(static_cast<std::size_t>(ranks));  // index in `rows`
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      const std::size_t r = (i * 5 + i / 3) % static_cast<std::size_t>(ranks);
+      part[r].push_back(rows[i]);
+      at[r].push_back(i);
+    }
+    ThreadExchange::Shared shared(ranks);
+    std::vector<std::vector<double>> got(static_cast<std::size_t>(ranks));
+    std::vector<std::int64_t> count(static_cast<std::size_t>(ranks), -1);
+    std::vector<std::thread> th;
+    for (int r = 0; r < ranks; ++r)
+      th.emplace_back([&, r] {
+        ThreadExchange ex(shared, r);
+        const auto u = static_cast<std::size_t>(r);
+        got[u] = solve_in_key_order(&ex, part[u], key, solve, count[u]);
+      });
+    for (std::thread& t : th) t.join();
+    for (std::size_t r = 0; r < static_cast<std::size_t>(ranks); ++r) {
+      EXPECT_EQ(count[r], 60) << "ranks " << ranks << " rank " << r;
+      ASSERT_EQ(got[r].size(), at[r].size());
+      for (std::size_t k = 0; k < at[r].size(); ++k)
+        EXPECT_EQ(got[r][k], ref[at[r][k]]) << "ranks " << ranks << " rank " << r << " row " << at[r][k];
+    }
   }
 }

@@ -224,7 +224,7 @@ void restart_from(hid_t file) {
   fuzz::require(info.step >= 0 && info.steps >= 1 && info.output_every >= 1 && info.anchor_step >= 0 &&
                     std::isfinite(info.dt) && info.dt > 0,
                 "a run description in range");
-  for (const ObjectBox& b : info.boxes)
+  for (const Box& b : info.boxes)
     for (int c = 0; c < 3; ++c) fuzz::require(std::isfinite(b.lo[c]) && std::isfinite(b.hi[c]) && b.lo[c] <= b.hi[c], "finite boxes");
   for (double v : rows.x) fuzz::require(std::isfinite(v), "finite positions");
   constexpr std::size_t na = StictionAnchor::kPerPoint;

@@ -19,14 +19,14 @@ using namespace softcontact;
 
 namespace {
 
-ObjectBox box(double x0, double y0, double z0, double x1, double y1, double z1) {
-  ObjectBox b;
+Box box(double x0, double y0, double z0, double x1, double y1, double z1) {
+  Box b;
   b.lo[0] = x0, b.lo[1] = y0, b.lo[2] = z0;
   b.hi[0] = x1, b.hi[1] = y1, b.hi[2] = z1;
   return b;
 }
 
-ObjectBox unit_box(double x, double y, double z) { return box(x, y, z, x + 1, y + 1, z + 1); }
+Box unit_box(double x, double y, double z) { return box(x, y, z, x + 1, y + 1, z + 1); }
 
 // `n` boxes of edge 0.2..1 with corners in [0, extent]^3, weights 1..1000, reach 0.5.
 PartitionInput random_boxes(int n, unsigned seed, double extent = 10.0) {

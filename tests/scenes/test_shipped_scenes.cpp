@@ -23,6 +23,7 @@
 
 #include "softcontact/collision.hpp"
 #include "softcontact/scene.hpp"
+#include "softcontact/diagnostics.hpp"
 #include "softcontact/simulator.hpp"
 
 using namespace softcontact;

@@ -45,6 +45,7 @@
 #include <vector>
 
 #include "softcontact/scene.hpp"
+#include "softcontact/diagnostics.hpp"
 #include "softcontact/simulator.hpp"
 
 using namespace softcontact;

@@ -1,0 +1,88 @@
+#pragma once
+// The ghost set of one rank (docs/architecture.md, "Parallel step"): whole objects of
+// other ranks within reach of this rank's own, kept in the World's ghost part and
+// refreshed through the Halo. A Verlet list of objects, as molecular dynamics keeps
+// neighbour lists: built with a skin, and rebuilt only when some owned vertex has moved
+// half the skin since. The ghost set changes work, never results.
+#include <mpi.h>
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "softcontact/partition.hpp"
+#include "softcontact/scene.hpp"
+#include "softcontact/surface.hpp"
+#include "softcontact/world.hpp"
+
+namespace softcontact {
+
+class Halo;
+class NeighbourExchange;
+
+/// Grows `b` to hold the point p (3 doubles). Unlike Box::add, a NaN coordinate is not
+/// skipped: it replaces the bound, so that the box of an object with a non-finite
+/// position can compare false (as the object boxes have always been built).
+void add_point(Box& b, const double* p);
+/// Each object's box at its initial positions (the scene's meshes).
+std::vector<Box> scene_boxes(const Scene& scene);
+/// Median over objects of the largest side of their box.
+double median_object_size(const std::vector<Box>& box);
+/// Every object's box at the current positions, on every rank: the owners' boxes
+/// assembled by a min/max reduction (collective over `comm`).
+std::vector<Box> object_boxes(MPI_Comm comm, const Scene& scene, const World& w);
+
+class GhostSet {
+public:
+  /// The skin starts at `cell_size` (the detector's cell) and may grow to the median
+  /// object size as objects move faster.
+  GhostSet(MPI_Comm comm, const Scene& scene, const std::vector<Surface>& surfaces, double cell_size);
+  ~GhostSet();
+  GhostSet(const GhostSet&) = delete;
+  GhostSet& operator=(const GhostSet&) = delete;
+
+  /// The ghost set at the current positions: every other rank's object whose box, grown
+  /// by skin/2, overlaps the box of one of this rank's objects grown likewise (the World's
+  /// ghost part and the Halo rebuilt where it changed, the ghost rows of x and x_prev
+  /// filled from their owners). Returns true when this rank's ghost objects changed (on
+  /// one rank: when `force`), so that the detector must be rebuilt. Collective.
+  bool rebuild(World& w, const std::vector<int>& partition, bool force);
+  /// Before detection: the ghost rows of x_prev take x^t (the last step's final
+  /// positions), those of x take x~ from the owners; the set is rebuilt first when some
+  /// owned vertex has moved half the skin. Returns what rebuild() returns, or false.
+  /// Collective (nothing on one rank).
+  bool refresh_predicted(World& w, const std::vector<int>& partition);
+  /// Copies the owners' rows of `xyz` (n_local,3) into the ghost rows (nothing on one
+  /// rank). Collective.
+  void update(double* xyz);
+  /// Before the World is replaced (migration): the Halo goes, its traffic is kept in
+  /// bytes_received(); the next rebuild(force) makes a new one.
+  void drop();
+
+  /// Whether there are other ranks to exchange with (a Halo exists).
+  bool active() const { return halo_ != nullptr; }
+  /// The neighbour messages of the contact response (null on one rank).
+  NeighbourExchange* exchange();
+  /// Ghost-set rebuilds so far.
+  std::int64_t rebuilds() const { return rebuilds_; }
+  /// Bytes this rank has received through its halos so far.
+  std::int64_t bytes_received() const;
+
+private:
+  bool stale(const World& w);
+
+  MPI_Comm comm_;
+  int rank_ = 0, nranks_ = 1;
+  const Scene& scene_;
+  const std::vector<Surface>& surfaces_;
+  double cell_size_ = 0;
+  double skin_ = 0;                  // ghost reach: objects closer than this are ghosted
+  double max_skin_ = 0;              // the skin's upper bound: the median object size
+  std::int64_t steps_since_ = 0;     // steps since the last rebuild
+  std::vector<double> x_at_build_;   // owned positions when the set was built
+  std::unique_ptr<Halo> halo_;
+  std::int64_t rebuilds_ = 0;
+  std::int64_t bytes_before_ = 0;    // of halos since replaced
+};
+
+}  // namespace softcontact

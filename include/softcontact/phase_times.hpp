@@ -1,0 +1,25 @@
+#pragma once
+// Wall-clock seconds spent in each phase of Algorithm 1 (method.md), per step: what the
+// Simulator accumulates, the diagnostics CSV writes and `softcontact bench` reports.
+
+namespace softcontact {
+
+struct PhaseTimes {
+  double forces = 0, integrate = 0, detect = 0, depth = 0, contact = 0, comm = 0, output = 0;
+  PhaseTimes& operator+=(const PhaseTimes& o) {
+    forces += o.forces;
+    integrate += o.integrate;
+    detect += o.detect;
+    depth += o.depth;
+    contact += o.contact;
+    comm += o.comm;
+    output += o.output;
+    return *this;
+  }
+  PhaseTimes scaled(double s) const {
+    return {forces * s, integrate * s, detect * s, depth * s, contact * s, comm * s, output * s};
+  }
+  double total() const { return forces + integrate + detect + depth + contact + comm + output; }
+};
+
+}  // namespace softcontact

@@ -1,0 +1,104 @@
+#pragma once
+// The serial core of a step: the paper's Algorithm 1 on one World, with no MPI
+// (docs/architecture.md, "One step"):
+//
+//   p  <- forces(x^t, v^t)                        UnconstrainedMotion (gravity, internal forces, damping)
+//   x~ <- unconstrained motion                    Verlet / symplectic / implicit Euler, prescribed motion
+//   C, d <- detection and penetration depth(x~)   CollisionDetector (spatial hashing, consistent depth)
+//   F; x, v <- contact response(C, x~, d)         ContactResponse (x = x~ + dt^2 F / m, v += dt F / m)
+//
+// On one rank step() is the whole step. With several ranks the Simulator (the parallel
+// layer) calls the phases one by one and refreshes the ghost rows between them; the
+// phases that need the neighbours (the mutual-record keys, the contact response's keyed
+// sums) take them as a NeighbourExchange (null: one rank).
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "softcontact/collision.hpp"
+#include "softcontact/contact.hpp"
+#include "softcontact/scene.hpp"
+#include "softcontact/world.hpp"
+
+namespace softcontact {
+
+class NeighbourExchange;
+class UnconstrainedMotion;
+
+/// Mean and median length over every tet edge of the scene (an edge counts once per
+/// tet) [m]; the same on every rank.
+void scene_edge_lengths(const Scene& scene, double& mean, double& median);
+/// The detector's settings for the scene: its self-contact and edge-contact keys, and
+/// the mean edge length as the grid's cell size.
+CollisionSettings collision_settings_for(const Scene& scene);
+
+class SerialStepper {
+public:
+  /// The models' rest shapes and the contact response for `world`, whose World::x holds
+  /// the scene's initial positions here. The detector comes with make_detector(), once
+  /// the World's ghost set is final. `world` must outlive the stepper.
+  SerialStepper(const Scene& scene, World& world, const CollisionSettings& settings);
+  ~SerialStepper();
+  SerialStepper(const SerialStepper&) = delete;
+  SerialStepper& operator=(const SerialStepper&) = delete;
+
+  /// (Re)builds the collision detector for the World's current objects and ghosts.
+  void make_detector();
+  bool has_detector() const { return detector_ != nullptr; }
+  /// Sizes the force buffer after the World's ghost part changed.
+  void resize();
+  /// After the initial state is set: the forces at it and the integrator's start.
+  void start();
+
+  /// One whole step on one rank, from time t: Algorithm 1, one phase per line.
+  void step(double t);
+
+  // The phases of step(), for the parallel layer.
+  /// p(x^t, v^t): gravity, internal forces, damping.
+  void forces();
+  /// x~ from p (explicit or implicit), World::x_prev = x^t; prescribed motion over [t, t + dt].
+  void unconstrained_motion(double t);
+  /// The colliding points at x~ and their consistent penetration vectors; with
+  /// scene.sim.mutual_pairs the mutual records settled, their partners' keys exchanged
+  /// with the neighbours (collective over them when `exchange` is not null).
+  void detection_and_depth(NeighbourExchange* exchange);
+  /// Contact forces; x^{t+h} and v^{t+h} of the colliding points (collective over the
+  /// neighbours when `exchange` is not null; then call update_anchors() once the ghost
+  /// rows hold the final positions).
+  void contact_response(NeighbourExchange* exchange);
+  /// New static-friction anchors from the final positions (after contact_response()
+  /// with an exchange).
+  void update_anchors();
+
+  /// Collisions at the initial positions between sides of which at least one moves, and
+  /// the deepest of them [m] (this World's; the caller sums over ranks).
+  void initial_overlaps(std::int64_t& count, double& depth);
+
+  UnconstrainedMotion& motion() { return *motion_; }
+  ContactResponse& response() { return *contact_; }
+  const ContactResponse& response() const { return *contact_; }
+  /// Collisions of the last step (after detection, before the response), sorted.
+  const std::vector<Collision>& collisions() const { return collisions_; }
+  const CollisionStats& collision_stats() const { return collision_stats_; }
+  const ContactStats& contact_stats() const { return contact_stats_; }
+  /// Wall seconds spent in neighbour exchanges of detection_and_depth() so far.
+  double exchange_seconds() const { return exchange_seconds_; }
+
+private:
+  void settle_mutual_records(NeighbourExchange* exchange);
+
+  const Scene& scene_;
+  World& world_;
+  CollisionSettings settings_;
+  std::unique_ptr<UnconstrainedMotion> motion_;
+  std::unique_ptr<CollisionDetector> detector_;
+  std::unique_ptr<ContactResponse> contact_;
+  std::vector<double> f_;
+  std::vector<Collision> collisions_;
+  std::vector<RecordKey> record_keys_;  // settle_mutual's partners (this rank's and its neighbours')
+  CollisionStats collision_stats_;
+  ContactStats contact_stats_;
+  double exchange_seconds_ = 0;
+};
+
+}  // namespace softcontact

@@ -1,0 +1,152 @@
+// The ghost set of one rank (ghosts.hpp).
+#include "softcontact/ghosts.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "softcontact/halo.hpp"
+#include "softcontact/mpi_util.hpp"
+
+namespace softcontact {
+
+void add_point(Box& b, const double* p) {
+  for (int d = 0; d < 3; ++d) {
+    if (!(p[d] >= b.lo[d])) b.lo[d] = p[d];
+    if (!(p[d] <= b.hi[d])) b.hi[d] = p[d];
+  }
+}
+
+std::vector<Box> scene_boxes(const Scene& scene) {
+  std::vector<Box> boxes;
+  for (const SceneObject& o : scene.objects) {
+    Box b = Box::none();
+    for (std::size_t v = 0; v < o.mesh.num_vertices(); ++v) add_point(b, &o.mesh.points[3 * v]);
+    boxes.push_back(b);
+  }
+  return boxes;
+}
+
+double median_object_size(const std::vector<Box>& box) {
+  std::vector<double> size;
+  for (const Box& b : box) size.push_back(std::max({b.hi[0] - b.lo[0], b.hi[1] - b.lo[1], b.hi[2] - b.lo[2]}));
+  if (size.empty()) return 0;
+  std::nth_element(size.begin(), size.begin() + static_cast<std::ptrdiff_t>(size.size() / 2), size.end());
+  return size[size.size() / 2];
+}
+
+// Every object has one owner: a min-reduction of the lo corners and a max of the hi
+// corners assembles the boxes. An object with a non-finite position has a box that
+// compares false.
+std::vector<Box> object_boxes(MPI_Comm comm, const Scene& scene, const World& w) {
+  const std::size_t no = scene.objects.size();
+  std::vector<Box> box(no, Box::none());
+  for (int k : w.owned_objects) {
+    const ObjectLayout& L = w.layout[static_cast<std::size_t>(k)];
+    const auto off = static_cast<std::size_t>(w.vertex_offset[static_cast<std::size_t>(k)]);
+    for (gid_t i = 0; i < L.vertex_count; ++i) add_point(box[static_cast<std::size_t>(k)], &w.x[3 * (off + static_cast<std::size_t>(i))]);
+  }
+  std::vector<double> lo(3 * no), hi(3 * no);
+  for (std::size_t k = 0; k < no; ++k)
+    for (std::size_t d = 0; d < 3; ++d) {
+      lo[3 * k + d] = box[k].lo[d];
+      hi[3 * k + d] = box[k].hi[d];
+    }
+  MPI_Allreduce(MPI_IN_PLACE, lo.data(), static_cast<int>(3 * no), MPI_DOUBLE, MPI_MIN, comm);
+  MPI_Allreduce(MPI_IN_PLACE, hi.data(), static_cast<int>(3 * no), MPI_DOUBLE, MPI_MAX, comm);
+  for (std::size_t k = 0; k < no; ++k)
+    for (std::size_t d = 0; d < 3; ++d) {
+      box[k].lo[d] = lo[3 * k + d];
+      box[k].hi[d] = hi[3 * k + d];
+    }
+  return box;
+}
+
+GhostSet::GhostSet(MPI_Comm comm, const Scene& scene, const std::vector<Surface>& surfaces, double cell_size)
+    : comm_(comm), rank_(comm_rank(comm)), nranks_(comm_size(comm)), scene_(scene), surfaces_(surfaces),
+      cell_size_(cell_size), skin_(cell_size), max_skin_(median_object_size(scene_boxes(scene))) {}
+
+GhostSet::~GhostSet() = default;
+
+NeighbourExchange* GhostSet::exchange() { return halo_.get(); }
+
+std::int64_t GhostSet::bytes_received() const { return bytes_before_ + (halo_ ? halo_->bytes_received() : 0); }
+
+void GhostSet::update(double* xyz) {
+  if (halo_) halo_->update(xyz);
+}
+
+void GhostSet::drop() {
+  if (halo_) bytes_before_ += halo_->bytes_received();
+  halo_.reset();
+}
+
+// While no owned vertex has moved skin/2 since the set was built, no ghosted pair's boxes
+// can have come to overlap at x~ without being ghosted: the set stays valid.
+bool GhostSet::rebuild(World& w, const std::vector<int>& partition, bool force) {
+  if (nranks_ == 1) return force;
+  const std::size_t no = scene_.objects.size();
+  const std::vector<Box> box = object_boxes(comm_, scene_, w);
+  std::vector<int> ghosts;
+  for (std::size_t b = 0; b < no; ++b) {
+    if (partition[b] == rank_ || !(box[b].lo[0] <= box[b].hi[0])) continue;
+    for (int a : w.owned_objects)
+      if (box[static_cast<std::size_t>(a)].within(box[b], skin_)) {
+        ghosts.push_back(static_cast<int>(b));
+        break;
+      }
+  }
+  int changed = force || ghosts != w.ghost_objects ? 1 : 0;
+  MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_LOR, comm_);
+  x_at_build_.assign(w.x.begin(), w.x.begin() + static_cast<std::ptrdiff_t>(3 * w.n_owned));
+  steps_since_ = 0;
+  if (!changed) {
+    // The same ghosts: their positions still have to be brought up to date (the caller
+    // skips its own halo update when it asked for a rebuild).
+    if (halo_) halo_->update(w.x.data());
+    return false;
+  }
+  const bool local_change = force || ghosts != w.ghost_objects;
+  if (local_change) set_ghost_objects(w, scene_, surfaces_, ghosts);
+  if (halo_) bytes_before_ += halo_->bytes_received();
+  halo_ = std::make_unique<Halo>(comm_, w);
+  halo_->update(w.x.data());
+  halo_->update(w.x_prev.data());
+  ++rebuilds_;
+  return local_change;
+}
+
+bool GhostSet::refresh_predicted(World& w, const std::vector<int>& partition) {
+  if (!halo_) return false;
+  std::copy(w.x.begin() + static_cast<std::ptrdiff_t>(3 * w.n_owned), w.x.end(),
+            w.x_prev.begin() + static_cast<std::ptrdiff_t>(3 * w.n_owned));
+  if (stale(w)) return rebuild(w, partition, false);
+  halo_->update(w.x.data());
+  return false;
+}
+
+// True (on every rank) when some owned vertex has moved skin/2 since the set was built.
+// Before a rebuild, the skin adapts to how fast things move: wide enough for about
+// kStepsPerBuild steps at the observed largest speed, between the cell size and the
+// median object size (a rebuild costs a new halo graph and, where the ghost set changed,
+// a new detector; a wide skin costs ghost traffic). The reduced maximum is the same on
+// every rank.
+bool GhostSet::stale(const World& w) {
+  double worst = 0;
+  const double* x = w.x.data();
+  for (std::size_t k = 0; k < x_at_build_.size(); k += 3) {
+    const double d2 = (x[k] - x_at_build_[k]) * (x[k] - x_at_build_[k]) +
+                      (x[k + 1] - x_at_build_[k + 1]) * (x[k + 1] - x_at_build_[k + 1]) +
+                      (x[k + 2] - x_at_build_[k + 2]) * (x[k + 2] - x_at_build_[k + 2]);
+    if (!(d2 <= worst)) worst = std::isnan(d2) ? std::numeric_limits<double>::infinity() : d2;
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPI_DOUBLE, MPI_MAX, comm_);
+  ++steps_since_;
+  if (worst <= 0.25 * skin_ * skin_) return false;
+  constexpr double kStepsPerBuild = 40;
+  const double per_step = std::sqrt(worst) / static_cast<double>(steps_since_);
+  if (std::isfinite(per_step)) skin_ = std::clamp(2 * kStepsPerBuild * per_step, cell_size_, std::max(cell_size_, max_skin_));
+  return true;
+}
+
+}  // namespace softcontact

@@ -1,0 +1,139 @@
+// The serial core of a step (stepper.hpp). No MPI: what crosses ranks goes through the
+// NeighbourExchange the parallel layer passes in.
+#include "softcontact/stepper.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "softcontact/exchange.hpp"
+#include "softcontact/motion.hpp"
+
+namespace softcontact {
+
+// Mean and median edge length over every tet edge of the scene (an edge counts once per
+// tet), from the scene alone: the same on every rank.
+void scene_edge_lengths(const Scene& scene, double& mean, double& median) {
+  std::vector<double> len;
+  len.reserve(6 * scene.num_tets());
+  double sum = 0;
+  for (const SceneObject& o : scene.objects)
+    for (std::size_t t = 0; t < o.mesh.num_tets(); ++t)
+      for (const auto& e : kTetEdges) {
+        const double* a = &o.mesh.points[3 * o.mesh.tets[4 * t + e[0]]];
+        const double* b = &o.mesh.points[3 * o.mesh.tets[4 * t + e[1]]];
+        len.push_back(std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]));
+        sum += len.back();
+      }
+  mean = median = 0;
+  if (len.empty()) return;
+  mean = sum / static_cast<double>(len.size());
+  std::nth_element(len.begin(), len.begin() + static_cast<std::ptrdiff_t>(len.size() / 2), len.end());
+  median = len[len.size() / 2];
+}
+
+// One cell size for every rank: detection's tolerances scale with it.
+CollisionSettings collision_settings_for(const Scene& scene) {
+  double mean = 0, median = 0;
+  scene_edge_lengths(scene, mean, median);
+  CollisionSettings s;
+  s.self_collisions = scene.sim.self_collisions;
+  s.edge_contacts = scene.sim.edge_contacts;
+  s.cell_size = mean > 0 ? mean : 1.0;
+  return s;
+}
+
+SerialStepper::SerialStepper(const Scene& scene, World& world, const CollisionSettings& settings)
+    : scene_(scene), world_(world), settings_(settings) {
+  motion_ = std::make_unique<UnconstrainedMotion>(scene_, world_);
+  contact_ = std::make_unique<ContactResponse>(scene_, world_);
+}
+
+SerialStepper::~SerialStepper() = default;
+
+// The surface hierarchies are built from the rest shapes: the scene's mesh points, for
+// owned and ghost vertices alike.
+void SerialStepper::make_detector() {
+  std::vector<double> rest(3 * world_.n_local());
+  for (std::size_t i = 0; i < world_.n_local(); ++i) {
+    const int k = world_.vertex_object[i];
+    const TetMesh& m = scene_.objects[static_cast<std::size_t>(k)].mesh;
+    const auto j = static_cast<std::size_t>(world_.vertex_gid[i] - world_.layout[static_cast<std::size_t>(k)].vertex_begin);
+    for (std::size_t d = 0; d < 3; ++d) rest[3 * i + d] = m.points[3 * j + d];
+  }
+  detector_ = std::make_unique<CollisionDetector>(world_, settings_, rest.data());
+}
+
+void SerialStepper::resize() { f_.resize(3 * world_.n_local(), 0.0); }
+
+void SerialStepper::start() {
+  motion_->forces(world_, f_);
+  motion_->start(world_, f_);
+}
+
+// One step on one rank (docs/architecture.md, "One step").
+void SerialStepper::step(double t) {
+  forces();                        // p(x^t, v^t): gravity, internal forces, damping
+  unconstrained_motion(t);         // x~ from p (explicit or implicit), prescribed motion
+  detection_and_depth(nullptr);    // colliding points and their consistent penetration depths
+  contact_response(nullptr);       // contact forces: x^{t+h} and v^{t+h} of the colliding points
+}
+
+void SerialStepper::forces() { motion_->forces(world_, f_); }
+
+void SerialStepper::unconstrained_motion(double t) { motion_->advance(world_, f_, t); }
+
+void SerialStepper::detection_and_depth(NeighbourExchange* exchange) {
+  detector_->detect(world_, world_.x_prev.data(), collisions_, collision_stats_);
+  if (scene_.sim.mutual_pairs) settle_mutual_records(exchange);
+}
+
+void SerialStepper::contact_response(NeighbourExchange* exchange) {
+  contact_->respond(world_, collisions_, scene_.sim.dt, contact_stats_, exchange);
+}
+
+void SerialStepper::update_anchors() { contact_->update_anchors(world_, collisions_); }
+
+// Item 7 of "Penetration vectors" (docs/collision.md): a record and its partner (the
+// record of its triangle's heavy vertex against its own body) may be on two ranks; each
+// rank sends the keys of its records whose heavy vertex is a ghost to its neighbours, so
+// that both halves of a cross-rank pair are decided from the same two records (the heavy
+// vertex is a vertex of the record's other body, a ghost when this rank does not own it).
+void SerialStepper::settle_mutual_records(NeighbourExchange* exchange) {
+  record_keys_.clear();
+  CollisionDetector::record_keys(world_, collisions_, record_keys_);
+  if (exchange) {
+    const auto t0 = std::chrono::steady_clock::now();
+    std::vector<char> buf;
+    for (const RecordKey& k : record_keys_)  // the heavy vertex is B's: a ghost when B is
+      if (!world_.owns_object(k.other_object)) append_records(buf, &k, 1);
+    const std::vector<std::vector<char>> recv =
+        exchange->exchange_bytes(std::vector<std::vector<char>>(exchange->neighbors().size(), buf));
+    for (const std::vector<char>& r : recv) {
+      const std::vector<RecordKey> in = read_records<RecordKey>(r);
+      record_keys_.insert(record_keys_.end(), in.begin(), in.end());
+    }
+    exchange_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  collision_stats_.mutual_settled = detector_->settle_mutual(world_, collisions_, record_keys_);
+}
+
+// Overlaps between two fixed sides (walls built flush against a floor) exert no force
+// and move nothing: not counted.
+void SerialStepper::initial_overlaps(std::int64_t& count, double& depth) {
+  std::vector<Collision> found;
+  CollisionStats st;
+  detector_->detect(world_, nullptr, found, st);
+  auto movable = [&](index_t v) { return world_.inv_mass[static_cast<std::size_t>(v)] != 0; };
+  count = 0;
+  depth = 0;
+  for (const Collision& c : found) {
+    if (!movable(c.point) && (c.point2 < 0 || !movable(c.point2)) && !movable(c.triangle[0]) &&
+        !movable(c.triangle[1]) && !movable(c.triangle[2]))
+      continue;
+    ++count;
+    depth = std::max(depth, std::hypot(c.depth[0], c.depth[1], c.depth[2]));
+  }
+}
+
+}  // namespace softcontact
