@@ -10,13 +10,24 @@
 #include <vector>
 
 #include "softcontact/box.hpp"
+#include "softcontact/material_laws.hpp"
 #include "softcontact/mesh.hpp"
 
 namespace softcontact {
 
 using Vec3 = std::array<double, 3>;
 
-enum class ModelKind { linear, corotational, stvk, neohookean, mass_spring };
+/// A material's deformation model: its position in the registry list of material laws
+/// (material_laws.hpp), one enumerator per law, named as in scene files.
+enum class ModelKind {
+#define SOFTCONTACT_MODEL_KIND(name) name,
+  SOFTCONTACT_MATERIAL_LAWS(SOFTCONTACT_MODEL_KIND)
+#undef SOFTCONTACT_MODEL_KIND
+};
+/// Number of material laws.
+#define SOFTCONTACT_COUNT_LAW(name) +1
+inline constexpr int kModelKinds = 0 SOFTCONTACT_MATERIAL_LAWS(SOFTCONTACT_COUNT_LAW);
+#undef SOFTCONTACT_COUNT_LAW
 enum class IntegratorKind { verlet, symplectic_euler, implicit_euler };
 
 const char* to_string(ModelKind m);

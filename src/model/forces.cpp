@@ -1,7 +1,8 @@
-// Floating-point contraction off for the whole file: the kernels are compiled for several
-// instruction sets (target_clones below), and without fused multiply-adds every variant
-// rounds exactly like the others and like the scalar reference. sqrt never sets errno
-// here (its arguments are squared lengths), which lets it vectorise.
+// Floating-point contraction off for the whole file, as in every law's file, whose block
+// kernels are compiled for several instruction sets (SOFTCONTACT_BLOCK_KERNEL,
+// tet_kernels.hpp): without fused multiply-adds every variant rounds exactly like the
+// others and like the scalar reference. sqrt never sets errno here (its arguments are
+// squared lengths), which lets it vectorise.
 #pragma GCC optimize("fp-contract=off", "no-math-errno")
 // The lane vectors (simd.hpp) change the calling convention between instruction sets;
 // every function taking them is inlined into one kernel (flatten), so it never matters.
@@ -16,11 +17,7 @@
 #include <numeric>
 #include <string>
 
-#include "corotational.hpp"
-#include "linear.hpp"
-#include "mass_spring.hpp"
-#include "neohookean.hpp"
-#include "stvk.hpp"
+#include "material_registry.hpp"
 #include "tet_kernels.hpp"
 
 namespace softcontact {
@@ -38,7 +35,7 @@ static_assert(kBlock % (2 * kLanes) == 0, "blocks must start on whole chunks (an
 /// than it saves. (Which thread adds what never changes the result.)
 constexpr std::ptrdiff_t kParallelVertices = 4096;
 
-Lame lame_of(const ElasticForces::Segment& s) { return {s.lambda, s.mu}; }
+LawParams params_of(const ElasticForces::Segment& s) { return {{s.lambda, s.mu}, s.young, s.beta}; }
 
 }  // namespace
 
@@ -74,7 +71,7 @@ ElasticForces::ElasticForces(const Scene& scene, const World& w) {
   }
 
   bool any_springs = false;
-  for (const Segment& s : segments_) any_springs = any_springs || s.model == ModelKind::mass_spring;
+  for (const Segment& s : segments_) any_springs = any_springs || material_law(s.model).spring_rest_lengths;
   if (any_springs)
     for (auto& l : inv_rest_length_) l.assign(m, 0.0);
 
@@ -90,7 +87,7 @@ ElasticForces::ElasticForces(const Scene& scene, const World& w) {
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) dm_inv_[3 * i + j][t] = c[3 * j + i] / det_dm;
     volume_[t] = w.rest_volume[t];
-    if (segments_[tet_segment_[t]].model == ModelKind::mass_spring)
+    if (material_law(segments_[tet_segment_[t]].model).spring_rest_lengths)
       for (int e = 0; e < 6; ++e) {
         const double* a = X[kTetEdges[e][0]];
         const double* b = X[kTetEdges[e][1]];
@@ -165,35 +162,10 @@ TetView make_view(const std::vector<index_t> (&corner)[4], const std::vector<dou
 
 namespace {
 
-/// The forces of one block of tets (one segment). Compiled for AVX-512, AVX2 and the
-/// x86-64 baseline; the loader picks the best the processor has.
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"), flatten))
+/// The forces of one block of tets (one segment), by the law's block kernel.
 void block_forces(const TetView& T, std::size_t t0, std::size_t t1, const ElasticForces::Segment& s, bool damping,
                   const double* x, const double* v, double* out) {
-  const bool damp = damping && s.beta > 0;
-  const Lame l = lame_of(s);
-  switch (s.model) {
-    case ModelKind::linear:
-      if (damp) law_block<LinearLaw, true>(T, t0, t1, LinearLaw{l, s.beta}, x, v, out);
-      else law_block<LinearLaw, false>(T, t0, t1, LinearLaw{l, s.beta}, x, v, out);
-      break;
-    case ModelKind::corotational:
-      if (damp) corotational_block<true>(T, t0, t1, l, s.beta, x, v, out);
-      else corotational_block<false>(T, t0, t1, l, s.beta, x, v, out);
-      break;
-    case ModelKind::stvk:
-      if (damp) law_block<StvkLaw, true>(T, t0, t1, StvkLaw{l, s.beta}, x, v, out);
-      else law_block<StvkLaw, false>(T, t0, t1, StvkLaw{l, s.beta}, x, v, out);
-      break;
-    case ModelKind::neohookean:
-      if (damp) law_block<NeoHookeanLaw, true>(T, t0, t1, NeoHookeanLaw(l, s.beta), x, v, out);
-      else law_block<NeoHookeanLaw, false>(T, t0, t1, NeoHookeanLaw(l, s.beta), x, v, out);
-      break;
-    case ModelKind::mass_spring:
-      if (damp) spring_block<true>(T, t0, t1, s.young, s.beta, x, v, out);
-      else spring_block<false>(T, t0, t1, s.young, s.beta, x, v, out);
-      break;
-  }
+  material_law(s.model).block_forces(T, t0, t1, params_of(s), damping && s.beta > 0, x, v, out);
 }
 
 }  // namespace
@@ -241,15 +213,7 @@ double tet_energy(const TetView& T, std::size_t t, const ElasticForces::Segment&
   const Mat3 Di = load_dm_inv(T, t);
   const Mat3 F = gradient_at(T, t, x, Di);
   inverted = !(det(F) > 0);
-  const Lame l = lame_of(s);
-  switch (s.model) {
-    case ModelKind::linear: return T.volume[t] * LinearLaw{l, 0}.energy(F);
-    case ModelKind::corotational: return T.volume[t] * CorotationalLaw{l, 0}.energy(F);
-    case ModelKind::stvk: return T.volume[t] * StvkLaw{l, 0}.energy(F);
-    case ModelKind::neohookean: return T.volume[t] * NeoHookeanLaw(l, 0).energy(F);
-    case ModelKind::mass_spring: return spring_energy(T, t, s.young, x);
-  }
-  return 0;
+  return material_law(s.model).energy(T, t, params_of(s), x, F);
 }
 
 }  // namespace
@@ -286,50 +250,9 @@ void ElasticForces::tet_forces(std::size_t t, const double* x, double f[12]) con
 void ElasticForces::tet_stiffness(std::size_t t, const double* x, StiffnessKind kind, double K[144]) const {
   const TetView T = make_view(corner_, dm_inv_, volume_, inv_rest_length_);
   const Segment& s = segments_[tet_segment_[t]];
-  const Lame l = lame_of(s);
   const Mat3 Di = load_dm_inv(T, t);
   const Mat3 F = gradient_at(T, t, x, Di);
-  const double V = T.volume[t];
-  if (s.model == ModelKind::linear || (s.model == ModelKind::corotational && kind == StiffnessKind::implicit)) {
-    // Closed form of V G^T C G for Hooke's law (C: lambda, mu), block (a, b):
-    //   K_ab = V (mu (g_a . g_b) I + mu g_b g_a^T + lambda g_a g_b^T),
-    // and for the corotational model the warped blocks R K_ab R^T.
-    const Mat3 R = s.model == ModelKind::corotational ? rotation_part(F) : kIdentity3;
-    double g[12];
-    shape_gradients(Di, g);
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) {
-        const double* ga = g + 3 * a;
-        const double* gb = g + 3 * b;
-        const double gg = ga[0] * gb[0] + ga[1] * gb[1] + ga[2] * gb[2];
-        Mat3 k;
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j)
-            k[3 * i + j] = V * ((i == j ? l.mu * gg : 0.0) + l.mu * gb[i] * ga[j] + l.lambda * ga[i] * gb[j]);
-        if (s.model == ModelKind::corotational) k = mul_nt(mul(R, k), R);
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j) K[12 * (3 * a + i) + 3 * b + j] = k[3 * i + j];
-      }
-    return;
-  }
-  Mat9 D{};
-  switch (s.model) {
-    case ModelKind::corotational: D = CorotationalLaw{l, 0}.stress_derivative(F); break;
-    case ModelKind::stvk: D = StvkLaw{l, 0}.stress_derivative(F); break;
-    case ModelKind::neohookean: D = NeoHookeanLaw(l, 0).stress_derivative(F); break;
-    case ModelKind::mass_spring: {
-      // Rest corners relative to corner 0 from Dm = (Dm^-1)^-1 (columns X1-X0, X2-X0, X3-X0).
-      const Mat3 dc = cofactor(Di);
-      const double dd = Di[0] * dc[0] + Di[3] * dc[3] + Di[6] * dc[6];
-      double X[12] = {0, 0, 0};
-      for (int a = 1; a <= 3; ++a)
-        for (int i = 0; i < 3; ++i) X[3 * a + i] = dc[3 * (a - 1) + i] / dd;  // Dm_(i,a-1) = cof(Di)_(a-1,i) / det
-      D = MassSpringLaw::from_rest(s.young, 0, X).stress_derivative(F);
-      break;
-    }
-    case ModelKind::linear: break;
-  }
-  element_stiffness(D, Di, V, K);
+  material_law(s.model).stiffness(params_of(s), Di, T.volume[t], F, kind, K);
 }
 
 }  // namespace softcontact

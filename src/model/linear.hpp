@@ -53,4 +53,22 @@ struct LinearLaw {
   }
 };
 
+/// Stiffness (12,12) of Hooke's law on a tet of rest volume V with Dm^-1 = Di, V G^T C G
+/// in closed form, block (a, b) for the shape-function gradients g (material_law.hpp):
+///   K_ab = V (mu (g_a . g_b) I + mu g_b g_a^T + lambda g_a g_b^T).
+/// The linear law's K at any x, and every FEM law's at rest (the stability limit).
+inline void hooke_stiffness(const Lame& l, const Mat3& Di, double V, double K[144]) {
+  double g[12];
+  shape_gradients(Di, g);
+  for (int a = 0; a < 4; ++a)
+    for (int b = 0; b < 4; ++b) {
+      const double* ga = g + 3 * a;
+      const double* gb = g + 3 * b;
+      const double gg = ga[0] * gb[0] + ga[1] * gb[1] + ga[2] * gb[2];
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          K[12 * (3 * a + i) + 3 * b + j] = V * ((i == j ? l.mu * gg : 0.0) + l.mu * gb[i] * ga[j] + l.lambda * ga[i] * gb[j]);
+    }
+}
+
 }  // namespace softcontact::model

@@ -21,7 +21,9 @@
 // small-strain elasticity with the material's Lame parameters (mass-spring: lambda =
 // mu = 2E/5 for the isotropic part, docs/models.md). Laws whose kernel is more than
 // "stress of F" (corotational: its polar decomposition; mass-spring: edge form) have a
-// block kernel of their own in tet_kernels.hpp, and tests check it against the law.
+// block kernel of their own in their file (corotational.cpp, mass_spring.cpp), and tests
+// check it against the law. What the rest of the code gets from a law (kernel, energy,
+// stiffness, ...) is its registry entry: material_registry.hpp.
 //
 // Linear tetrahedron (rest corners X0..X3, current x0..x3):
 //   Dm = [X1-X0, X2-X0, X3-X0],  Ds = [x1-x0, x2-x0, x3-x0],  F = Ds Dm^-1 (constant
