@@ -38,57 +38,26 @@
 #include <cmath>
 #include <limits>
 
-#include "mass_spring.hpp"
-#include "material_law.hpp"
+#include "material_registry.hpp"
 #include "softcontact/forces.hpp"
 
 namespace softcontact {
 
 double tet_max_frequency(const double X[12], const Material& m) {
   using namespace model;
-  Eigen::Matrix<double, 12, 12> K = Eigen::Matrix<double, 12, 12>::Zero();
   const Mat3 dm = {X[3] - X[0], X[6] - X[0], X[9] - X[0], X[4] - X[1], X[7] - X[1],
                    X[10] - X[1], X[5] - X[2], X[8] - X[2], X[11] - X[2]};
   const double vol = std::abs(det(dm)) / 6;
-  if (m.model == ModelKind::mass_spring) {
-    // Springs k_e = E V / L_e^2 along the rest edges (mass_spring.hpp).
-    for (int e = 0; e < 6; ++e) {
-      const int a = kTetEdges[e][0], b = kTetEdges[e][1];
-      double d[3], l2 = 0;
-      for (int i = 0; i < 3; ++i) {
-        d[i] = X[3 * b + i] - X[3 * a + i];
-        l2 += d[i] * d[i];
-      }
-      const double k = m.young * vol / (l2 * l2);  // k_e / L^2, times d d^T below (d unnormalised)
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) {
-          const double s = k * d[i] * d[j];
-          K(3 * a + i, 3 * a + j) += s;
-          K(3 * b + i, 3 * b + j) += s;
-          K(3 * a + i, 3 * b + j) -= s;
-          K(3 * b + i, 3 * a + j) -= s;
-        }
-    }
-  } else {
-    // Every FEM model linearises at rest to Hooke's law (material_law.hpp):
-    // K_ab = V (mu (g_a . g_b) I + mu g_b g_a^T + lambda g_a g_b^T).
-    const Mat3 c = cofactor(dm);
-    const double dd = det_from_cofactor(dm, c);
-    Mat3 dm_inv;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) dm_inv[3 * i + j] = c[3 * j + i] / dd;
-    double g[12];
-    shape_gradients(dm_inv, g);
-    const double mu = m.lame_mu(), lambda = m.lame_lambda();
-    for (int a = 0; a < 4; ++a)
-      for (int b = 0; b < 4; ++b) {
-        const double gg = g[3 * a] * g[3 * b] + g[3 * a + 1] * g[3 * b + 1] + g[3 * a + 2] * g[3 * b + 2];
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j)
-            K(3 * a + i, 3 * b + j) =
-                vol * ((i == j ? mu * gg : 0.0) + mu * g[3 * b + i] * g[3 * a + j] + lambda * g[3 * a + i] * g[3 * b + j]);
-      }
-  }
+  const Mat3 c = cofactor(dm);
+  const double dd = det_from_cofactor(dm, c);
+  Mat3 dm_inv;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) dm_inv[3 * i + j] = c[3 * j + i] / dd;
+  // The law's rest stiffness: Hooke's law for the FEM models (they all linearise to it,
+  // material_law.hpp), the springs for mass_spring.
+  double k[144];
+  material_law(m.model).rest_stiffness(X, dm_inv, vol, law_params(m), k);
+  const Eigen::Matrix<double, 12, 12> K = Eigen::Map<const Eigen::Matrix<double, 12, 12, Eigen::RowMajor>>(k);
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 12, 12>> es(K, Eigen::EigenvaluesOnly);
   return std::sqrt(std::max(0.0, es.eigenvalues().maxCoeff()) / (m.density * vol / 4));
 }
