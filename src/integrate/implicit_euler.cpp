@@ -7,6 +7,7 @@
 #include <string>
 
 #include "softcontact/error.hpp"
+#include "../model/material_registry.hpp"
 
 namespace softcontact {
 
@@ -25,7 +26,7 @@ struct ImplicitEuler::System {
   int object = 0;
   std::string name;                      ///< for messages
   std::size_t tet_begin = 0, tet_end = 0;
-  bool constant = false;                 ///< linear model: K does not depend on x
+  bool constant = false;                 ///< the law's K does not depend on x (constant_stiffness)
   double assembled_dt = 0;               ///< dt of the assembled matrix (constant systems)
   double alpha = 0, beta = 0;
   bool failed = false;                   ///< the last solve did not converge
@@ -54,7 +55,7 @@ ImplicitEuler::ImplicitEuler(const Scene& scene, const World& w, const ElasticFo
     s->object = seg.object;
     s->tet_begin = seg.begin;
     s->tet_end = seg.end;
-    s->constant = seg.model == ModelKind::linear;
+    s->constant = model::material_law(seg.model).constant_stiffness;
     s->alpha = seg.alpha;
     s->beta = seg.beta;
     // Movable vertices of this object, numbered in local order.

@@ -18,18 +18,22 @@
 #include "softcontact/primitives.hpp"
 #include "softcontact/scene.hpp"
 #include "scene_internal.hpp"
+#include "../model/material_registry.hpp"
 
 namespace softcontact {
 
+namespace {
+
+/// The material laws' names in scene files, in ModelKind order (material_laws.hpp).
+#define SOFTCONTACT_LAW_NAME(name) #name,
+constexpr const char* kModelNames[] = {SOFTCONTACT_MATERIAL_LAWS(SOFTCONTACT_LAW_NAME)};
+#undef SOFTCONTACT_LAW_NAME
+
+}  // namespace
+
 const char* to_string(ModelKind m) {
-  switch (m) {
-    case ModelKind::linear: return "linear";
-    case ModelKind::corotational: return "corotational";
-    case ModelKind::stvk: return "stvk";
-    case ModelKind::neohookean: return "neohookean";
-    case ModelKind::mass_spring: return "mass_spring";
-  }
-  return "?";
+  const int k = static_cast<int>(m);
+  return k >= 0 && k < kModelKinds ? kModelNames[k] : "?";
 }
 
 const char* to_string(IntegratorKind i) {
@@ -287,13 +291,11 @@ Material parse_material(const Reader& r, const YAML::Node& n) {
   Material m;
   m.name = r.text(r.require(n, "name", "a material"), "'name'");
   const std::string where = "material '" + m.name + "'";
-  if (const auto model = n["model"])
-    m.model = r.choice<ModelKind>(model, "model",
-                                  {{"linear", ModelKind::linear},
-                                   {"corotational", ModelKind::corotational},
-                                   {"stvk", ModelKind::stvk},
-                                   {"neohookean", ModelKind::neohookean},
-                                   {"mass_spring", ModelKind::mass_spring}});
+  if (const auto model = n["model"]) {
+    std::vector<std::pair<std::string, ModelKind>> laws;
+    for (int k = 0; k < kModelKinds; ++k) laws.emplace_back(kModelNames[k], static_cast<ModelKind>(k));
+    m.model = r.choice<ModelKind>(model, "model", laws);
+  }
   m.young = r.positive(r.require(n, "young", where), "'young' (Young's modulus, Pa) of " + where);
   const auto nu = r.require(n, "poisson", where);
   m.poisson = r.number(nu, "'poisson' of " + where);
@@ -695,16 +697,23 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path, c
   const std::filesystem::path dir = std::filesystem::path(path).parent_path();
   parse_objects(r, r.require(root, "objects", "the scene"), scene, dir, limits);
 
-  // Implicit Euler needs a symmetric positive (semi-)definite stiffness: the linear model's
-  // and the corotational model's warped one. The non-linear models' exact tangents are
-  // indefinite under compression, and CG would break down (docs/models.md).
+  // Implicit Euler needs a symmetric positive (semi-)definite stiffness: the laws whose
+  // registry entry says so (linear, and the corotational model's warped one). The
+  // non-linear models' exact tangents are indefinite under compression, and CG would break
+  // down (docs/models.md).
   if (scene.sim.integrator == IntegratorKind::implicit_euler)
     for (const auto& o : scene.objects) {
       const Material& mat = scene.materials[o.material];
-      if (o.kinematic || mat.model == ModelKind::linear || mat.model == ModelKind::corotational) continue;
+      if (o.kinematic || model::material_law(mat.model).implicit) continue;
+      std::vector<const char*> ok;
+      for (int k = 0; k < kModelKinds; ++k)
+        if (model::material_law(static_cast<ModelKind>(k)).implicit) ok.push_back(kModelNames[k]);
+      std::string list;  // 'a', 'b' and 'c'
+      for (std::size_t k = 0; k < ok.size(); ++k)
+        list.append(k == 0 ? "'" : k + 1 == ok.size() ? " and '" : ", '").append(ok[k]).append("'");
       r.fail(root["simulation"]["integrator"],
-             std::string("integrator 'implicit_euler' supports the models 'linear' and 'corotational' only, but object '") +
-                 o.name + "' uses material '" + mat.name + "' with model '" + to_string(mat.model) +
+             "integrator 'implicit_euler' supports the models " + list + " only, but object '" + o.name +
+                 "' uses material '" + mat.name + "' with model '" + to_string(mat.model) +
                  "'; use integrator 'verlet' or 'symplectic_euler', or one of these models");
     }
 
