@@ -40,6 +40,10 @@ public:
   void plan(NeighbourExchange* exchange, const std::vector<int>& owner, const std::vector<gid_t>& gid,
             const std::function<std::int32_t(gid_t)>& slot_of);
 
+  /// One rank: `n` slots, all owned; no exchange. (plan() with a null exchange, without
+  /// building its lists.)
+  void plan_local(std::size_t n);
+
   /// Slots after plan() (the given ones and those added for neighbours).
   std::size_t slots() const { return nb_.size(); }
   /// Whether slot k's vertex belongs to this rank (its sums are complete after reduce()).
@@ -133,7 +137,15 @@ void KeyedSums::reduce(std::size_t n, KeyOf&& key, int dim, Emit&& emit, Target&
   SC_ASSERT(dim >= 1 && dim <= 3);
   remote_.clear();
   const std::size_t nn = request_.size();
-  if (nn > 0) {
+  if (nn == 0) {  // one rank (or no neighbour): every slot owned, every contribution here
+    for (std::size_t q = 0; q < n; ++q)
+      emit(q, [&](std::int32_t k, const double* v) {
+        double* t = target(k);
+        for (int d = 0; d < dim; ++d) t[d] += v[d];
+      });
+    return;
+  }
+  {  // contributions to ghost slots go to their owners, with their keys
     std::vector<std::vector<Record>> out(nn);
     for (std::size_t q = 0; q < n; ++q)
       emit(q, [&](std::int32_t k, const double* v) {
@@ -147,7 +159,7 @@ void KeyedSums::reduce(std::size_t n, KeyOf&& key, int dim, Emit&& emit, Target&
     for (std::size_t m = 0; m < nn; ++m) append_records(send[m], out[m].data(), out[m].size());
     receive(exchange_->exchange_bytes(send));
   }
-  // The common case: every contribution is local and already in key order.
+  // Slots without contributions from other ranks: theirs are all here, in key order.
   for (std::size_t q = 0; q < n; ++q)
     emit(q, [&](std::int32_t k, const double* v) {
       const auto s = static_cast<std::size_t>(k);

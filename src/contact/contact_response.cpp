@@ -72,6 +72,10 @@ std::int32_t ContactResponse::slot_of_vertex(const World& w, index_t v) {
 // Which slots are ghosts and who owns them; the neighbours' requests add slots for our
 // vertices they touch (KeyedSums::plan, once per step).
 void ContactResponse::plan_ghosts(const World& w, NeighbourExchange* exchange) {
+  if (!exchange) {
+    sums_.plan_local(slots_.size());
+    return;
+  }
   slot_owner_.resize(slots_.size());
   slot_gid_.resize(slots_.size());
   for (std::size_t k = 0; k < slots_.size(); ++k) {

@@ -52,6 +52,16 @@ void KeyedSums::plan(NeighbourExchange* exchange, const std::vector<int>& owner,
   remote_flag_.assign(nb_.size(), 0);
 }
 
+void KeyedSums::plan_local(std::size_t n) {
+  exchange_ = nullptr;
+  nb_.assign(n, -1);
+  remote_flag_.assign(n, 0);
+  request_.clear();
+  served_.clear();
+  served_gids_.clear();
+  served_slots_.clear();
+}
+
 std::int32_t KeyedSums::served_slot(gid_t vertex) const {
   // The vertex was asked for in plan(), so it has a slot.
   const auto it = std::lower_bound(served_gids_.begin(), served_gids_.end(), vertex);
