@@ -3,16 +3,14 @@
 // implicit Euler the warped stiffness R K0 R^T (symmetric positive semi-definite), else
 // the exact tangent.
 //
-// Floating-point contraction off and sqrt without errno, as in forces.cpp, for every
-// function of this file (before any include, so that the inline functions of the headers
-// get them too): the block kernel is cloned per instruction set and must round alike.
+// forces.cpp's pragmas, before any include (the headers' inline functions need them too):
+// the kernel is cloned per instruction set, and every clone must round alike.
 #pragma GCC optimize("fp-contract=off", "no-math-errno")
 #pragma GCC diagnostic ignored "-Wpsabi"
 
 #include "corotational.hpp"
-#include "material_registry.hpp"
 #include "polar_decomposition.hpp"
-#include "tet_kernels.hpp"
+#include "stress_law.hpp"
 
 namespace softcontact::model {
 
@@ -125,16 +123,12 @@ void stiffness(const LawParams& p, const Mat3& Di, double V, const Mat3& F, Stif
     }
 }
 
-void rest_stiffness(const double*, const Mat3& Di, double V, const LawParams& p, double K[144]) {
-  hooke_stiffness(p.lame, Di, V, K);
-}
-
 }  // namespace
 
 extern const MaterialLaw corotational_law = {.block_forces = forces,
                                              .energy = energy,
                                              .stiffness = stiffness,
-                                             .rest_stiffness = rest_stiffness,
+                                             .rest_stiffness = hooke_rest_stiffness,
                                              .implicit = true};
 
 }  // namespace softcontact::model

@@ -1,15 +1,13 @@
 // The linear law's registry entry (linear.hpp, material_registry.hpp): the generic block
 // kernel, Hooke's stiffness in closed form, which does not depend on x.
 //
-// Floating-point contraction off and sqrt without errno, as in forces.cpp, for every
-// function of this file (before any include, so that the inline functions of the headers
-// get them too): the block kernel is cloned per instruction set and must round alike.
+// forces.cpp's pragmas, before any include (the headers' inline functions need them too):
+// the kernel is cloned per instruction set, and every clone must round alike.
 #pragma GCC optimize("fp-contract=off", "no-math-errno")
 #pragma GCC diagnostic ignored "-Wpsabi"
 
 #include "linear.hpp"
-#include "material_registry.hpp"
-#include "tet_kernels.hpp"
+#include "stress_law.hpp"
 
 namespace softcontact::model {
 
@@ -18,28 +16,19 @@ namespace {
 SOFTCONTACT_BLOCK_KERNEL
 void forces(const TetView& T, std::size_t begin, std::size_t end, const LawParams& p, bool damp, const double* x,
             const double* v, double* out) {
-  if (damp) law_block<LinearLaw, true>(T, begin, end, LinearLaw{p.lame, p.beta}, x, v, out);
-  else law_block<LinearLaw, false>(T, begin, end, LinearLaw{p.lame, p.beta}, x, v, out);
-}
-
-double energy(const TetView& T, std::size_t t, const LawParams& p, const double*, const Mat3& F) {
-  return T.volume[t] * LinearLaw{p.lame, 0}.energy(F);
+  stress_law_block<LinearLaw>(T, begin, end, p, damp, x, v, out);
 }
 
 void stiffness(const LawParams& p, const Mat3& Di, double V, const Mat3&, StiffnessKind, double K[144]) {
   hooke_stiffness(p.lame, Di, V, K);
 }
 
-void rest_stiffness(const double*, const Mat3& Di, double V, const LawParams& p, double K[144]) {
-  hooke_stiffness(p.lame, Di, V, K);
-}
-
 }  // namespace
 
 extern const MaterialLaw linear_law = {.block_forces = forces,
-                                       .energy = energy,
+                                       .energy = stress_law_energy<LinearLaw>,
                                        .stiffness = stiffness,
-                                       .rest_stiffness = rest_stiffness,
+                                       .rest_stiffness = hooke_rest_stiffness,
                                        .implicit = true,
                                        .constant_stiffness = true};
 

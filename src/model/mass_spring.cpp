@@ -3,9 +3,8 @@
 // exact tangent of the law as stiffness, and the springs' own rest stiffness for the
 // stability limit (the network is not Hooke's law at rest).
 //
-// Floating-point contraction off and sqrt without errno, as in forces.cpp, for every
-// function of this file (before any include, so that the inline functions of the headers
-// get them too): the block kernel is cloned per instruction set and must round alike.
+// forces.cpp's pragmas, before any include (the headers' inline functions need them too):
+// the kernel is cloned per instruction set, and every clone must round alike.
 #pragma GCC optimize("fp-contract=off", "no-math-errno")
 #pragma GCC diagnostic ignored "-Wpsabi"
 

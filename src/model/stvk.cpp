@@ -2,16 +2,13 @@
 // kernel, and the exact tangent as stiffness (indefinite under compression, so not for
 // implicit Euler).
 //
-// Floating-point contraction off and sqrt without errno, as in forces.cpp, for every
-// function of this file (before any include, so that the inline functions of the headers
-// get them too): the block kernel is cloned per instruction set and must round alike.
+// forces.cpp's pragmas, before any include (the headers' inline functions need them too):
+// the kernel is cloned per instruction set, and every clone must round alike.
 #pragma GCC optimize("fp-contract=off", "no-math-errno")
 #pragma GCC diagnostic ignored "-Wpsabi"
 
 #include "stvk.hpp"
-#include "linear.hpp"
-#include "material_registry.hpp"
-#include "tet_kernels.hpp"
+#include "stress_law.hpp"
 
 namespace softcontact::model {
 
@@ -20,28 +17,14 @@ namespace {
 SOFTCONTACT_BLOCK_KERNEL
 void forces(const TetView& T, std::size_t begin, std::size_t end, const LawParams& p, bool damp, const double* x,
             const double* v, double* out) {
-  if (damp) law_block<StvkLaw, true>(T, begin, end, StvkLaw{p.lame, p.beta}, x, v, out);
-  else law_block<StvkLaw, false>(T, begin, end, StvkLaw{p.lame, p.beta}, x, v, out);
-}
-
-double energy(const TetView& T, std::size_t t, const LawParams& p, const double*, const Mat3& F) {
-  return T.volume[t] * StvkLaw{p.lame, 0}.energy(F);
-}
-
-void stiffness(const LawParams& p, const Mat3& Di, double V, const Mat3& F, StiffnessKind, double K[144]) {
-  element_stiffness(StvkLaw{p.lame, 0}.stress_derivative(F), Di, V, K);
-}
-
-// At rest the law linearises to Hooke's law (material_law.hpp).
-void rest_stiffness(const double*, const Mat3& Di, double V, const LawParams& p, double K[144]) {
-  hooke_stiffness(p.lame, Di, V, K);
+  stress_law_block<StvkLaw>(T, begin, end, p, damp, x, v, out);
 }
 
 }  // namespace
 
 extern const MaterialLaw stvk_law = {.block_forces = forces,
-                                   .energy = energy,
-                                   .stiffness = stiffness,
-                                   .rest_stiffness = rest_stiffness};
+                                     .energy = stress_law_energy<StvkLaw>,
+                                     .stiffness = tangent_stiffness<StvkLaw>,
+                                     .rest_stiffness = hooke_rest_stiffness};
 
 }  // namespace softcontact::model
