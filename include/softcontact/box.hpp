@@ -70,6 +70,16 @@ struct Box {
   }
 };
 
+/// The box grown by g on every side (an empty box stays empty).
+inline Box grown(Box b, double g) {
+  if (b.empty()) return b;
+  for (std::size_t d = 0; d < 3; ++d) {
+    b.lo[d] -= g;
+    b.hi[d] += g;
+  }
+  return b;
+}
+
 /// Sorts `ids` (indices into `box`) by (lo[axis], index): the order of a sweep along `axis`.
 inline void sort_for_sweep(const std::vector<Box>& box, std::vector<std::int32_t>& ids, int axis) {
   std::sort(ids.begin(), ids.end(), [&](std::int32_t a, std::int32_t b) {

@@ -61,6 +61,7 @@ struct CollisionStats {
   std::int64_t edge_unpaired = 0;       ///< crossing pairs left without a record
   std::int64_t edge_pairs = 0;          ///< candidate (edge, triangle) pairs of the edge search held
   std::int64_t edge_pair_searches = 0;  ///< 1 when those pairs were found again in this call (the skin was used up)
+  std::int64_t point_searches = 0;      ///< 1 when the narrow phase's kept candidates were found again in this call
   std::int64_t mutual_settled = 0;      ///< records of contradicting mutual pairs given a common axis (settle_mutual)
   std::int64_t degenerate_skipped = 0;  ///< degenerate triangles/tets/edges and non-finite positions met and handled
   /// Largest |x~ - x^t| / thinnest object thickness (tunnelling risk; 0 without x^t).
@@ -68,7 +69,7 @@ struct CollisionStats {
   /// coordinate axes, at construction.
   double max_step_over_thickness = 0;
   std::int64_t surface_searches = 0;    ///< tet walks that gave up, replaced by a search of B's surface hierarchy
-  std::int64_t large_tets = 0;          ///< tets whose box spans more grid cells than there are query points: tested against every point
+  std::int64_t large_tets = 0;          ///< tets whose box spans more grid cells than there are query points: tested against every point (counted when the candidates are searched)
   double detection_seconds = 0;         ///< wall time of broad and narrow phase [s]
   double depth_seconds = 0;             ///< wall time of penetration vectors, T_i and weights [s]
 };
@@ -84,6 +85,11 @@ struct CollisionSettings {
   /// cells (docs/collision.md, "Edge contacts", item 2). The crossings found do not
   /// depend on it; 0 (found again every step) only to check that.
   double edge_skin = 0.25;
+  /// The skin of the narrow phase's candidates, in grid cells: each tet keeps the query
+  /// points within it of its box, and they are found again only when some vertex has
+  /// moved half of it (docs/collision.md, "Candidates kept across steps"). The records do
+  /// not depend on it; 0 (found again every step) only to check that.
+  double point_skin = 0.3;
 };
 
 /// What a vertex record tells its partner in a mutual contact (docs/collision.md,

@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "box_pairs.hpp"
 #include "collision_topology.hpp"
@@ -66,10 +67,19 @@ struct ThreadCounts {
   double max_step = 0;
 };
 
-// One tet against the points of grid cells, in two passes: a tight, branch-free box
-// test over the cells' points that only collects the passing points (most fail it, at
-// random, and the own object's points are folded into the same test: a tet's box always
-// holds some of them), then the exact test on the few collected.
+// The query points as the narrow phase reads them: point k is vertex point[k], at
+// x + 3k, of object slot label[k]. The grid's sorted points, or the kept candidates'.
+struct PointView {
+  const double* x;
+  const std::int32_t* label;
+  const index_t* point;
+};
+
+// One tet against a set of query points (the points of grid cells, or the tet's kept
+// candidates), in two passes: a tight, branch-free box test that only collects the
+// passing points (most fail it, at random, and the own object's points are folded into
+// the same test: a tet's box always holds some of them), then the exact test on the few
+// collected.
 struct TetCandidate {
   const World& w;
   const CollisionTopology& topo;
@@ -77,39 +87,52 @@ struct TetCandidate {
   index_t tet;
   std::int32_t slot;
   Box box;
-  std::vector<std::uint32_t>& passed;  // sorted-point indices, reused per thread
+  PointView pts;
+  std::vector<std::uint32_t>& passed;  // point indices k, reused per thread
 
   std::size_t count = 0;                // points collected so far (passed[0 .. count))
 
+  [[gnu::always_inline]] inline bool inside_box(std::size_t k) const {
+    const double* q = pts.x + 3 * k;
+    return (q[0] >= box.lo[0]) & (q[0] <= box.hi[0]) & (q[1] >= box.lo[1]) & (q[1] <= box.hi[1]) &
+           (q[2] >= box.lo[2]) & (q[2] <= box.hi[2]) & (self | (pts.label[k] != slot));
+  }
+
   // Branch-free compaction: every point is written, the count advances for those that
-  // pass.
-  [[gnu::always_inline]] inline void collect(const SpatialHash& grid, std::size_t k0, std::size_t k1) {
+  // pass. Points k0 .. k1-1.
+  [[gnu::always_inline]] inline void collect(std::size_t k0, std::size_t k1) {
     if (passed.size() < count + (k1 - k0)) passed.resize(2 * (count + (k1 - k0)));
     std::uint32_t* outp = passed.data();
-    const double* px = grid.sorted_x();
-    const std::int32_t* label = grid.sorted_label();
-    const double lx = box.lo[0], ly = box.lo[1], lz = box.lo[2], hx = box.hi[0], hy = box.hi[1], hz = box.hi[2];
     std::size_t n = count;
     for (std::size_t k = k0; k < k1; ++k) {
-      const double* q = px + 3 * k;
-      const bool in = (q[0] >= lx) & (q[0] <= hx) & (q[1] >= ly) & (q[1] <= hy) & (q[2] >= lz) & (q[2] <= hz) &
-                      (self | (label[k] != slot));
       outp[n] = static_cast<std::uint32_t>(k);
-      n += in;
+      n += inside_box(k);
+    }
+    count = n;
+  }
+
+  // The same over a list of point indices.
+  [[gnu::always_inline]] inline void collect_list(const std::uint32_t* ks, std::size_t nk) {
+    if (passed.size() < count + nk) passed.resize(2 * (count + nk));
+    std::uint32_t* outp = passed.data();
+    std::size_t n = count;
+    for (std::size_t q = 0; q < nk; ++q) {
+      outp[n] = ks[q];
+      n += inside_box(ks[q]);
     }
     count = n;
   }
 
   /// Exact tests of the collected points; false for a degenerate tet.
-  bool finish(const SpatialHash& grid, std::vector<Hit>& out) {
+  bool finish(std::vector<Hit>& out) {
     if (count == 0) return true;
     const index_t* tv = &w.tets[4 * static_cast<std::size_t>(tet)];
     TetFaces faces;
     if (!faces.setup(w.x.data(), tv, topo.boundary_mask[static_cast<std::size_t>(tet)])) return false;
-    const double* px = grid.sorted_x();
+    const double* px = pts.x;
     for (std::size_t q = 0; q < count; ++q) {
       const std::uint32_t k = passed[q];
-      const index_t v = grid.point(k);
+      const index_t v = pts.point[k];
       if (topo.vertex_slot[static_cast<std::size_t>(v)] == slot && (tv[0] == v || tv[1] == v || tv[2] == v || tv[3] == v))
         continue;  // own object (self-collisions only): a tet incident to v does not count
       if (faces.contains({px[3 * k], px[3 * k + 1], px[3 * k + 2]})) out.push_back({v, tet});
@@ -162,14 +185,39 @@ struct CollisionDetector::Impl {
   std::vector<std::uint8_t> self_active;    // per slot, this step
   std::vector<double> self_delta;           // per slot: distance from the best rigid motion [m]
 
+  // Candidates kept across steps (docs/collision.md, "Candidates kept across steps"): per
+  // tet, the query points that the grid found within `kept_skin` of its box at the
+  // positions kept_x. While no vertex has moved more than half the skin along any axis
+  // since, they hold every point that can be in the tet's box now.
+  struct KeptTet {
+    index_t tet;
+    std::uint32_t begin, count;  // its points: kept_k[begin .. begin + count)
+  };
+  bool kept_valid = false;
+  double kept_skin = 0;                     // [m]
+  std::vector<double> kept_x;               // (n_local, 3) at the search
+  std::vector<std::uint8_t> kept_self;      // per slot: self-tested at the search
+  std::vector<std::uint8_t> kept_owned;     // per slot: owned at the search
+  std::vector<index_t> kept_point;          // the query points, in grid order
+  std::vector<std::int32_t> kept_label;     // their object slots
+  std::vector<double> kept_px;              // their positions this step
+  std::vector<KeptTet> kept_tets;
+  std::vector<std::uint32_t> kept_k;        // indices into kept_point
+  std::vector<std::vector<KeptTet>> kept_tet_buf;
+  std::vector<std::vector<std::uint32_t>> kept_k_buf;
+  bool any_bad = false;                     // a non-finite position this step
+
   Impl(const World& w, const CollisionSettings& s, const double* rest_x);
   void detect(const World& w, const double* x_start, std::vector<Collision>& out, CollisionStats& st);
 
 private:
   void scan_positions(const World& w, const double* x_start, CollisionStats& st);
-  void find_partners(const double* x);
-  void select_points(const World& w);
-  void narrow_phase(const World& w, CollisionStats& st);
+  void object_boxes(const double* x);
+  void find_partners(double grow);
+  void select_points(const World& w, double grow);
+  void narrow_phase(const World& w, CollisionStats& st, double skin);
+  bool kept_usable(const World& w) const;
+  void narrow_kept(const World& w, CollisionStats& st);
   void group_pairs(const World& w, CollisionStats& st);
   bool away_from_star(const World& w, index_t v, index_t t) const;
   void depth(const World& w, const double* x_start, std::vector<Collision>& out, CollisionStats& st);
@@ -213,36 +261,43 @@ void CollisionDetector::Impl::scan_positions(const World& w, const double* x_sta
     }
   });
   double max_step = 0;
+  any_bad = false;
   for (const ThreadCounts& c : counts) {
     st.degenerate_skipped += c.nonfinite;
+    any_bad = any_bad || c.nonfinite > 0;
     max_step = std::max(max_step, c.max_step);
   }
   st.max_step_over_thickness = thinnest > 0 ? max_step / thinnest : 0;
 }
 
-// Step 1: object boxes, and the pairs whose boxes overlap: sort by the boxes' lower x,
-// then each object meets only the objects that start before it ends.
-void CollisionDetector::Impl::find_partners(const double* x) {
+// Step 1: object boxes (the depth and the edge search use them too), ...
+void CollisionDetector::Impl::object_boxes(const double* x) {
   const std::size_t no = topo.objects.size();
   object_box.resize(no);
-  partners.resize(no);
   parallel_for(no, [&](std::size_t k, int) {
     Box b;
     b.reset();
     for (index_t v : topo.objects[k].vertices)
       if (!bad_vertex[static_cast<std::size_t>(v)]) b.add(load(x, v));
     object_box[k] = b;
-    partners[k].clear();
   });
+}
+
+// ... and the pairs whose boxes come within 2 grow of each other: sort by the boxes'
+// lower x, then each object meets only the objects that start before it ends.
+void CollisionDetector::Impl::find_partners(double grow) {
   overlapping_boxes(
-      object_box, 0.0, [&](std::size_t k) { return !topo.objects[k].triangles.empty(); }, partners, sweep);
+      object_box, grow, [&](std::size_t k) { return !topo.objects[k].triangles.empty(); }, partners, sweep);
 }
 
 // Step 2: the query points, owned surface vertices inside the box of a partner object
 // (all owned surface vertices of objects with partners, with self-collisions on), and per object B
 // a box holding the other objects' query points inside B's box: a tet of B whose box
-// misses it cannot hold any of them.
-void CollisionDetector::Impl::select_points(const World& w) {
+// misses it cannot hold any of them. With grow > 0 (a search for kept candidates) the
+// partners' boxes are grown by `grow` for the first test, and the foreign box holds the
+// points within `grow` of B's box, grown by `grow`: a tet's box grown by `grow` misses
+// it only when it holds none of them.
+void CollisionDetector::Impl::select_points(const World& w, double grow) {
   const double* x = w.x.data();
   const std::size_t no = topo.objects.size();
   object_active.assign(no, 0);
@@ -260,7 +315,7 @@ void CollisionDetector::Impl::select_points(const World& w) {
       const V3 p = load(x, v);
       bool take = self_active[k] != 0;
       for (std::size_t q = 0; !take && q < partners[k].size(); ++q)
-        take = object_box[static_cast<std::size_t>(partners[k][q])].contains(p);
+        take = grown(object_box[static_cast<std::size_t>(partners[k][q])], grow).contains(p);
       if (!take) continue;
       object_points[k].push_back(v);
       point_box[k].add(p);
@@ -277,15 +332,17 @@ void CollisionDetector::Impl::select_points(const World& w) {
     // every foreign point that can be inside B, at O(partners) cost.
     Box fb;
     fb.reset();
+    const Box reach = grown(object_box[b], grow);
     if (self_active[b]) {
-      fb = object_box[b];  // its own points may be inside it too
+      fb = reach;  // its own points may be inside it too
     } else if (object_active[b]) {
       for (std::int32_t a : partners[b]) {
         const Box& pa = point_box[static_cast<std::size_t>(a)];
-        if (pa.empty() || !pa.overlaps(object_box[b])) continue;
-        fb.add(pa.intersection(object_box[b]));
+        if (pa.empty() || !pa.overlaps(reach)) continue;
+        fb.add(pa.intersection(reach));
       }
     }
+    fb = grown(fb, grow);
     foreign_box[b] = fb;
     // Outcodes of the object's vertices against that box (bit per side, as in
     // Cohen-Sutherland clipping): a tet's box misses the box exactly when some bit is set
@@ -313,10 +370,16 @@ void CollisionDetector::Impl::select_points(const World& w) {
 // overlaps, keeps those inside its box and of another object (TetCandidate::collect),
 // and tests them exactly (TetCandidate::finish). Tets are independent: each thread
 // appends to its own hit buffer, and the hits are sorted afterwards.
-void CollisionDetector::Impl::narrow_phase(const World& w, CollisionStats& st) {
+// With skin > 0 the tets' boxes are grown by the skin and the points collected are kept
+// as each tet's candidates (kept_tets, kept_k) instead of being tested: narrow_kept()
+// tests them, in this step and in the following ones while they stay valid.
+void CollisionDetector::Impl::narrow_phase(const World& w, CollisionStats& st, double skin) {
   const double* x = w.x.data();
   grid.insert_points(x, query_points, topo.vertex_slot.data());
+  const PointView pts{grid.sorted_x(), grid.sorted_label(), grid.sorted_point()};
   reset_buffers(hit_buf);
+  reset_buffers(kept_tet_buf);
+  reset_buffers(kept_k_buf);
   passed_buf.resize(static_cast<std::size_t>(max_threads()));
   counts.assign(static_cast<std::size_t>(max_threads()), ThreadCounts{});
   const std::size_t m = w.tets.size() / 4;
@@ -330,24 +393,105 @@ void CollisionDetector::Impl::narrow_phase(const World& w, CollisionStats& st) {
     Box box;
     box.reset();
     for (int c = 0; c < 4; ++c) box.add(load(x, tv[c]));
+    if (skin > 0) box = grown(box, skin);
     const CellRange r = grid.range_of(box);
     if (r.empty()) return;
     auto& passed = passed_buf[static_cast<std::size_t>(t)];
-    TetCandidate cand{w, topo, self_active[static_cast<std::size_t>(slot)] != 0, static_cast<index_t>(e), slot, box, passed};
+    TetCandidate cand{w, topo, self_active[static_cast<std::size_t>(slot)] != 0, static_cast<index_t>(e), slot, box, pts,
+                      passed};
     if (r.count() > static_cast<double>(grid.num_points())) {
       // A box spanning more cells than there are points (a tet stretched far by a
       // blown-up simulation): cheaper to test every point than to visit the cells.
       ++counts[static_cast<std::size_t>(t)].large;
-      cand.collect(grid, 0, grid.num_points());
+      cand.collect(0, grid.num_points());
     } else {
-      grid.for_each_run(r, [&](std::size_t k0, std::size_t k1) { cand.collect(grid, k0, k1); });
+      grid.for_each_run(r, [&](std::size_t k0, std::size_t k1) { cand.collect(k0, k1); });
     }
-    if (!cand.finish(grid, hit_buf[static_cast<std::size_t>(t)])) ++counts[static_cast<std::size_t>(t)].degenerate;
+    if (skin > 0) {
+      if (cand.count == 0) return;
+      auto& kt = kept_tet_buf[static_cast<std::size_t>(t)];
+      auto& kk = kept_k_buf[static_cast<std::size_t>(t)];
+      kt.push_back({static_cast<index_t>(e), static_cast<std::uint32_t>(kk.size()), static_cast<std::uint32_t>(cand.count)});
+      kk.insert(kk.end(), passed.begin(), passed.begin() + static_cast<std::ptrdiff_t>(cand.count));
+      return;
+    }
+    if (!cand.finish(hit_buf[static_cast<std::size_t>(t)])) ++counts[static_cast<std::size_t>(t)].degenerate;
   });
   for (const ThreadCounts& c : counts) {
     st.degenerate_skipped += c.degenerate;
     st.large_tets += c.large;
   }
+  if (skin > 0) {
+    // The candidates, as one list in thread order (tet order), with the positions and the
+    // state they were found at.
+    kept_tets.clear();
+    kept_k.clear();
+    for (std::size_t t = 0; t < kept_tet_buf.size(); ++t) {
+      const auto base = static_cast<std::uint32_t>(kept_k.size());
+      for (KeptTet k : kept_tet_buf[t]) kept_tets.push_back({k.tet, k.begin + base, k.count});
+      kept_k.insert(kept_k.end(), kept_k_buf[t].begin(), kept_k_buf[t].end());
+    }
+    kept_point.assign(grid.sorted_point(), grid.sorted_point() + grid.num_points());
+    kept_label.assign(grid.sorted_label(), grid.sorted_label() + grid.num_points());
+    kept_x.assign(x, x + 3 * w.n_local());
+    kept_self = self_active;
+    kept_owned.resize(topo.objects.size());
+    for (std::size_t k = 0; k < topo.objects.size(); ++k) kept_owned[k] = w.owns_object(topo.objects[k].object) ? 1 : 0;
+    kept_valid = kept_k.size() < (std::size_t{1} << 31);  // indices are 32-bit
+    narrow_kept(w, st);
+    return;
+  }
+  hits.clear();
+  concatenate(hit_buf, hits);
+  std::sort(hits.begin(), hits.end());  // (point, tet): independent of the schedule
+}
+
+// The kept candidates still hold every point that can be in a tet's box when the
+// positions are finite, the owned objects and the search's reach (skin) are those of the
+// search, no object is self-tested that was not then, and no vertex has moved more than
+// half the skin along any axis since: a point in a tet's box now was then within the skin
+// of the tet's box then (each of them moved at most half the skin), and within the skin of
+// its partner's box, so the search found it (docs/collision.md).
+bool CollisionDetector::Impl::kept_usable(const World& w) const {
+  const std::size_t n = w.n_local(), no = topo.objects.size();
+  if (!kept_valid || any_bad || kept_x.size() != 3 * n || kept_owned.size() != no) return false;
+  for (std::size_t k = 0; k < no; ++k) {
+    if (self_active[k] && !kept_self[k]) return false;
+    if (kept_owned[k] != (w.owns_object(topo.objects[k].object) ? 1 : 0)) return false;
+  }
+  const double half = 0.5 * kept_skin;
+  const double* x = w.x.data();
+  unsigned ok = 1;
+  for (std::size_t i = 0; i < 3 * n; ++i) ok &= static_cast<unsigned>(std::abs(x[i] - kept_x[i]) <= half);
+  return ok != 0;
+}
+
+// Steps 3 and 4 on the kept candidates: each tet's box at x against its candidates'
+// positions at x, then the exact test, as in narrow_phase.
+void CollisionDetector::Impl::narrow_kept(const World& w, CollisionStats& st) {
+  const double* x = w.x.data();
+  kept_px.resize(3 * kept_point.size());
+  parallel_for(kept_point.size(), [&](std::size_t k, int) {
+    for (int d = 0; d < 3; ++d) kept_px[3 * k + static_cast<std::size_t>(d)] = x[3 * static_cast<std::size_t>(kept_point[k]) + static_cast<std::size_t>(d)];
+  });
+  const PointView pts{kept_px.data(), kept_label.data(), kept_point.data()};
+  reset_buffers(hit_buf);
+  passed_buf.resize(static_cast<std::size_t>(max_threads()));
+  counts.assign(static_cast<std::size_t>(max_threads()), ThreadCounts{});
+  parallel_for(kept_tets.size(), [&](std::size_t q, int t) {
+    const KeptTet& kt = kept_tets[q];
+    const auto e = static_cast<std::size_t>(kt.tet);
+    const std::int32_t slot = topo.tet_slot[e];
+    const index_t* tv = &w.tets[4 * e];
+    Box box;
+    box.reset();
+    for (int c = 0; c < 4; ++c) box.add(load(x, tv[c]));
+    TetCandidate cand{w, topo, self_active[static_cast<std::size_t>(slot)] != 0, kt.tet, slot, box, pts,
+                      passed_buf[static_cast<std::size_t>(t)]};
+    cand.collect_list(kept_k.data() + kt.begin, kt.count);
+    if (!cand.finish(hit_buf[static_cast<std::size_t>(t)])) ++counts[static_cast<std::size_t>(t)].degenerate;
+  });
+  for (const ThreadCounts& c : counts) st.degenerate_skipped += c.degenerate;
   hits.clear();
   concatenate(hit_buf, hits);
   std::sort(hits.begin(), hits.end());  // (point, tet): independent of the schedule
@@ -502,9 +646,27 @@ void CollisionDetector::Impl::detect(const World& w, const double* x_start, std:
   } else {
     self_active.assign(topo.objects.size(), 0);
   }
-  find_partners(w.x.data());
-  select_points(w);
-  narrow_phase(w, st);
+  // The query: on the kept candidates while they are valid, else a search of the grid
+  // (with a skin: one that keeps its candidates for the next steps).
+  if (settings.point_skin > 0 && kept_usable(w)) {
+    object_boxes(w.x.data());
+    narrow_kept(w, st);
+  } else {
+    double skin = 0;
+    if (settings.point_skin > 0) {
+      // The skin, and a margin for the rounding of the grown boxes and of the moves
+      // compared with half of it: a few ulps of the largest coordinate.
+      double big = 0;
+      for (double c : w.x) big = std::max(big, std::abs(c));
+      kept_skin = settings.point_skin * grid.cell_size();
+      skin = kept_skin + 16 * std::numeric_limits<double>::epsilon() * big;
+      st.point_searches = 1;
+    }
+    object_boxes(w.x.data());
+    find_partners(0.5 * skin);
+    select_points(w, skin);
+    narrow_phase(w, st, skin);
+  }
   group_pairs(w, st);
   st.detection_seconds = seconds_since(t0);
   const auto t1 = std::chrono::steady_clock::now();

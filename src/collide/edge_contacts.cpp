@@ -235,16 +235,6 @@ struct TrianglePlanes {
   }
 };
 
-// A box grown by g on each side (empty stays empty).
-Box grown(Box b, double g) {
-  if (b.empty()) return b;
-  for (std::size_t d = 0; d < 3; ++d) {
-    b.lo[d] -= g;
-    b.hi[d] += g;
-  }
-  return b;
-}
-
 }  // namespace
 
 // The pairs found at ref_x_ hold every (edge, triangle) pair whose boxes meet at x when

@@ -130,6 +130,7 @@ public:
 
   /// Sorted point k: vertex point(k), position sorted_x() + 3k, label sorted_label()[k].
   index_t point(std::size_t k) const { return points_[k]; }
+  const index_t* sorted_point() const { return points_.data(); }
   const double* sorted_x() const { return px_.data(); }
   const std::int32_t* sorted_label() const { return pl_.data(); }
 
