@@ -196,8 +196,9 @@ struct CollisionDetector::Impl {
   bool kept_valid = false;
   double kept_skin = 0;                     // [m]
   std::vector<double> kept_x;               // (n_local, 3) at the search
-  std::vector<std::uint8_t> kept_self;      // per slot: self-tested at the search
   std::vector<std::uint8_t> kept_owned;     // per slot: owned at the search
+  std::vector<std::vector<std::int32_t>> kept_partners;  // per slot: partners within the skin at the search
+  std::vector<std::array<double, 6>> kept_move;          // per slot: centre and half-range of the moves since, per axis
   std::vector<index_t> kept_point;          // the query points, in grid order
   std::vector<std::int32_t> kept_label;     // their object slots
   std::vector<double> kept_px;              // their positions this step
@@ -216,7 +217,7 @@ private:
   void find_partners(double grow);
   void select_points(const World& w, double grow);
   void narrow_phase(const World& w, CollisionStats& st, double skin);
-  bool kept_usable(const World& w) const;
+  bool kept_usable(const World& w);
   void narrow_kept(const World& w, CollisionStats& st);
   void group_pairs(const World& w, CollisionStats& st);
   bool away_from_star(const World& w, index_t v, index_t t) const;
@@ -434,11 +435,10 @@ void CollisionDetector::Impl::narrow_phase(const World& w, CollisionStats& st, d
     kept_point.assign(grid.sorted_point(), grid.sorted_point() + grid.num_points());
     kept_label.assign(grid.sorted_label(), grid.sorted_label() + grid.num_points());
     kept_x.assign(x, x + 3 * w.n_local());
-    kept_self = self_active;
+    kept_partners = partners;
     kept_owned.resize(topo.objects.size());
     for (std::size_t k = 0; k < topo.objects.size(); ++k) kept_owned[k] = w.owns_object(topo.objects[k].object) ? 1 : 0;
     kept_valid = kept_k.size() < (std::size_t{1} << 31);  // indices are 32-bit
-    narrow_kept(w, st);
     return;
   }
   hits.clear();
@@ -446,24 +446,53 @@ void CollisionDetector::Impl::narrow_phase(const World& w, CollisionStats& st, d
   std::sort(hits.begin(), hits.end());  // (point, tet): independent of the schedule
 }
 
-// The kept candidates still hold every point that can be in a tet's box when the
-// positions are finite, the owned objects and the search's reach (skin) are those of the
-// search, no object is self-tested that was not then, and no vertex has moved more than
-// half the skin along any axis since: a point in a tet's box now was then within the skin
-// of the tet's box then (each of them moved at most half the skin), and within the skin of
-// its partner's box, so the search found it (docs/collision.md).
-bool CollisionDetector::Impl::kept_usable(const World& w) const {
+// The kept candidates still hold every point that can be in a tet's box (and they are
+// then used) when the positions are finite, the owned objects are those of the search,
+// and the objects moved little relative to each other. Per object A and axis, the moves of its vertices since the search lie in
+// c_A +- r_A. A point p of A inside the box of a tet T of B now was then inside T's box
+// grown by |c_B - c_A| + r_A + r_B (T's box moved by c_B +- r_B, p by c_A +- r_A), and within
+// as much of B's box: covered by the search's skin s when that sum is at most s for every
+// pair of partners at the search, and when every pair of
+// objects whose boxes overlap now were partners then (docs/collision.md). Falling objects
+// thus keep their candidates while they fall, as long as they fall together.
+bool CollisionDetector::Impl::kept_usable(const World& w) {
   const std::size_t n = w.n_local(), no = topo.objects.size();
   if (!kept_valid || any_bad || kept_x.size() != 3 * n || kept_owned.size() != no) return false;
-  for (std::size_t k = 0; k < no; ++k) {
-    if (self_active[k] && !kept_self[k]) return false;
+  for (std::size_t k = 0; k < no; ++k)
     if (kept_owned[k] != (w.owns_object(topo.objects[k].object) ? 1 : 0)) return false;
-  }
-  const double half = 0.5 * kept_skin;
   const double* x = w.x.data();
-  unsigned ok = 1;
-  for (std::size_t i = 0; i < 3 * n; ++i) ok &= static_cast<unsigned>(std::abs(x[i] - kept_x[i]) <= half);
-  return ok != 0;
+  kept_move.resize(no);
+  parallel_for(no, [&](std::size_t k, int) {
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    double lo[3] = {inf, inf, inf}, hi[3] = {-inf, -inf, -inf};
+    for (index_t v : topo.objects[k].vertices)
+      for (int d = 0; d < 3; ++d) {
+        const std::size_t i = 3 * static_cast<std::size_t>(v) + static_cast<std::size_t>(d);
+        const double m = x[i] - kept_x[i];
+        lo[d] = m < lo[d] ? m : lo[d];
+        hi[d] = m > hi[d] ? m : hi[d];
+      }
+    for (int d = 0; d < 3; ++d) {
+      if (topo.objects[k].vertices.empty()) lo[d] = hi[d] = 0;
+      kept_move[k][static_cast<std::size_t>(d)] = 0.5 * (lo[d] + hi[d]);
+      kept_move[k][3 + static_cast<std::size_t>(d)] = 0.5 * (hi[d] - lo[d]);
+    }
+  });
+  const double s = kept_skin;
+  for (std::size_t a = 0; a < no; ++a) {
+    const auto& ma = kept_move[a];
+    for (std::int32_t b : kept_partners[a]) {
+      const auto& mb = kept_move[static_cast<std::size_t>(b)];
+      for (std::size_t d = 0; d < 3; ++d)
+        if (!(std::abs(mb[d] - ma[d]) + ma[3 + d] + mb[3 + d] <= s)) return false;
+    }
+  }
+  // No new pair of overlapping objects.
+  find_partners(0);
+  for (std::size_t a = 0; a < no; ++a)
+    for (std::int32_t b : partners[a])
+      if (!std::binary_search(kept_partners[a].begin(), kept_partners[a].end(), b)) return false;
+  return true;
 }
 
 // Steps 3 and 4 on the kept candidates: each tet's box at x against its candidates'
@@ -648,12 +677,17 @@ void CollisionDetector::Impl::detect(const World& w, const double* x_start, std:
   }
   // The query: on the kept candidates while they are valid, else a search of the grid
   // (with a skin: one that keeps its candidates for the next steps).
-  if (settings.point_skin > 0 && kept_usable(w)) {
-    object_boxes(w.x.data());
+  object_boxes(w.x.data());
+  // Self-contact: every step searches. Objects start and stop being self-tested often
+  // (self culling), and a self-tested tet's own points made the kept lists long: chess500
+  // poured took 17.9 ms of detection per step with kept candidates against 12.9 without
+  // (docs/benchmarks.md, "Candidates kept across steps").
+  const bool keep = settings.point_skin > 0 && !settings.self_collisions;
+  if (keep && kept_usable(w)) {
     narrow_kept(w, st);
   } else {
     double skin = 0;
-    if (settings.point_skin > 0) {
+    if (keep) {
       // The skin, and a margin for the rounding of the grown boxes and of the moves
       // compared with half of it: a few ulps of the largest coordinate.
       double big = 0;
@@ -662,10 +696,10 @@ void CollisionDetector::Impl::detect(const World& w, const double* x_start, std:
       skin = kept_skin + 16 * std::numeric_limits<double>::epsilon() * big;
       st.point_searches = 1;
     }
-    object_boxes(w.x.data());
     find_partners(0.5 * skin);
     select_points(w, skin);
     narrow_phase(w, st, skin);
+    if (skin > 0) narrow_kept(w, st);
   }
   group_pairs(w, st);
   st.detection_seconds = seconds_since(t0);
