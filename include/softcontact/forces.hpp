@@ -35,6 +35,34 @@ struct ElasticMeasures {
 /// theorem; docs/models.md); with damping see damped_stable_step.
 double tet_max_frequency(const double X[12], const Material& m);
 
+/// Lanczos steps of mesh_max_frequency (fewer when the mesh has fewer degrees of freedom).
+inline constexpr int kMeshLanczosSteps = 60;
+
+/// The highest angular frequency of a whole mesh at rest (`dt_bound: mesh`): omega_max =
+/// sqrt(lambda_max(M^-1 K)), K the assembled rest stiffness of the material's model (the
+/// K_T of tet_max_frequency summed), M the lumped masses. An upper bound that is certified,
+/// not estimated, and at most the element bound.
+struct MeshFrequency {
+  double omega = 0;       ///< [rad/s] the bound: >= omega_max, <= element
+  double element = 0;     ///< [rad/s] the element bound it was given
+  double estimate = 0;    ///< [rad/s] Lanczos's largest Ritz value, a lower bound on omega_max
+  double residual = 0;    ///< [1/s^2] that Ritz pair's residual norm (on omega^2)
+  int steps = 0;          ///< Lanczos steps taken
+  int tries = 0;          ///< LDL^T factorisations of mu I - M^-1/2 K M^-1/2 tried
+  bool certified = false; ///< a candidate below the element bound was certified (else omega = element)
+};
+
+/// mesh_max_frequency: Lanczos on M^-1/2 K M^-1/2 (kMeshLanczosSteps steps from a fixed
+/// start, serial: the same result on any number of threads) proposes theta <= lambda_max;
+/// mu = theta (1 + d), d = 2^-10, 2^-8, ..., is certified >= lambda_max by a sparse
+/// L D L^T of mu I - M^-1/2 K M^-1/2 with all pivots positive (Sylvester's law of inertia),
+/// plus the factorisation's rounding. omega = sqrt of the first certified mu, or
+/// omega_element (tet_max_frequency's maximum over the mesh, an upper bound by Irons'
+/// theorem) when that is smaller. docs/models.md, "Stability limit and `dt: auto`". Tests
+/// pass fewer `lanczos_steps` to exercise the certificate on a poor estimate.
+MeshFrequency mesh_max_frequency(const TetMesh& mesh, const Material& m, double omega_element,
+                                 int lanczos_steps = kMeshLanczosSteps);
+
 /// Largest step [s] for which position Verlet and symplectic Euler are stable on a mode of
 /// angular frequency omega [rad/s] under the explicit Rayleigh damping -alpha m v - beta K v
 /// (alpha [1/s], beta [s]): dt^2 omega^2 + 2 dt (alpha + beta omega^2) <= 4, i.e.

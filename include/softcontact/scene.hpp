@@ -29,9 +29,13 @@ enum class ModelKind {
 inline constexpr int kModelKinds = 0 SOFTCONTACT_MATERIAL_LAWS(SOFTCONTACT_COUNT_LAW);
 #undef SOFTCONTACT_COUNT_LAW
 enum class IntegratorKind { verlet, symplectic_euler, implicit_euler };
+/// What bounds an object's highest frequency for the stable step: the largest of its tets'
+/// own (Irons' element bound, cheap) or its assembled mesh's, certified (docs/models.md).
+enum class DtBound { element, mesh };
 
 const char* to_string(ModelKind m);
 const char* to_string(IntegratorKind i);
+const char* to_string(DtBound b);
 
 struct Material {
   std::string name;
@@ -77,6 +81,9 @@ struct SceneObject {
   bool kinematic = false;      ///< the whole object is fixed (infinite mass)
   std::vector<Box> fixed;    ///< vertices inside any of these (world coordinates) are fixed
   Motion motion;               ///< prescribed motion of the fixed vertices (none by default)
+  /// The scene entry it is a copy of (-1: none known). All copies of an entry are rigid
+  /// motions of one scaled mesh with one material, so they share their frequencies.
+  int entry = -1;
 };
 
 enum class ContactClosure { local, coupled };
@@ -85,6 +92,7 @@ struct Simulation {
   bool dt_auto = true;
   double dt = 0;                    ///< [s]; when dt_auto, filled in from the stability limit
   double dt_safety = 0.5;           ///< fraction of the stable explicit step used by `dt: auto`
+  DtBound dt_bound = DtBound::element;  ///< how the stable step bounds the highest frequencies
   std::optional<double> end_time;   ///< [s]; exactly one of end_time and steps is set
   std::optional<std::int64_t> steps;
   Vec3 gravity{0, 0, -9.81};        ///< [m/s^2]
@@ -153,14 +161,18 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path, c
 struct StableStep {
   double dt = std::numeric_limits<double>::infinity();  ///< [s]; +inf when nothing can move
   int object = -1;            ///< scene object whose limit it is (-1: none)
-  double omega = 0;           ///< that object's highest tet frequency [rad/s]
+  double omega = 0;           ///< the bound on that object's highest frequency [rad/s]
   double alpha = 0, beta = 0; ///< its material's Rayleigh damping: mass [1/s], stiffness [s]
+  DtBound bound = DtBound::element;  ///< which bound omega is
+  double omega_element = 0;   ///< that object's highest tet frequency (= omega for the element bound) [rad/s]
+  double omega_estimate = 0;  ///< mesh bound: Lanczos's lower bound on its omega_max [rad/s] (0: none)
 
   bool damped() const { return alpha > 0 || beta > 0; }
   /// Damping ratio of the mode omega: alpha / (2 omega) + beta omega / 2.
   double damping_ratio() const { return alpha / (2 * omega) + beta * omega / 2; }
   /// What it is, for messages: "2 / the highest element frequency" and, with damping, the
-  /// object, frequency, damping and damping ratio (docs/models.md).
+  /// object, frequency, damping and damping ratio; for the mesh bound the object, its
+  /// bound, the Lanczos estimate and the element bound (docs/models.md).
   std::string explain(const Scene& scene) const;
 };
 
@@ -172,7 +184,11 @@ struct StableStep {
 /// its material's Rayleigh damping, 4 / (c + sqrt(c^2 + 4 omega^2)), c = alpha + beta
 /// omega^2 (damped_stable_step; 2 / omega without damping). The smallest over the
 /// objects. Not multiplied by the safety factor; dt = +inf when nothing can move.
+/// With the mesh bound, omega is instead a certified upper bound on the object's assembled
+/// highest frequency (mesh_max_frequency in forces.hpp), computed once per scene entry.
+/// The first form takes the scene's simulation.dt_bound.
 StableStep stable_step(const Scene& scene);
+StableStep stable_step(const Scene& scene, DtBound bound);
 
 /// stable_step(scene).dt.
 double stable_time_step(const Scene& scene);

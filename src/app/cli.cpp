@@ -308,6 +308,11 @@ void print_summary(const Scene& s, std::ostream& out) {
       << " surface triangles, mass " << human(total_mass, "kg") << "\n";
   const StableStep stable = stable_step(s);
   out << "  stable explicit time step " << human(stable.dt, "s") << " (" << stable.explain(s) << ")\n";
+  if (sim.dt_bound == DtBound::mesh) {
+    const StableStep element = stable_step(s, DtBound::element);
+    out << "  element bound " << human(element.dt, "s") << " (the mesh bound is " << std::setprecision(4)
+        << stable.dt / element.dt << " times it)\n";
+  }
   out << "  time step " << human(sim.dt, "s") << (sim.dt_auto ? " (auto, safety " : " (given") ;
   if (sim.dt_auto) out << sim.dt_safety;
   out << "), integrator " << to_string(sim.integrator) << "\n";

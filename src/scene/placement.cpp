@@ -166,6 +166,7 @@ SceneObject make_object(const EntrySpec& spec, TetMesh mesh, const std::string& 
   o.kinematic = spec.kinematic;
   o.fixed = spec.fixed;
   o.motion = spec.motion;
+  o.entry = spec.index;
   return o;
 }
 

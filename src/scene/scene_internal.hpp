@@ -19,6 +19,7 @@ struct EntrySpec {
   enum class Instancing { single, grid, random };
   std::string name;
   std::string source;
+  int index = -1;                 ///< position among the scene's entries (SceneObject::entry)
   int material = 0;
   TetMesh mesh;                   ///< in the mesh's own coordinates
   Vec3 scale{1, 1, 1};

@@ -36,6 +36,8 @@ const char* to_string(ModelKind m) {
   return k >= 0 && k < kModelKinds ? kModelNames[k] : "?";
 }
 
+const char* to_string(DtBound b) { return b == DtBound::mesh ? "mesh" : "element"; }
+
 const char* to_string(IntegratorKind i) {
   switch (i) {
     case IntegratorKind::verlet: return "verlet";
@@ -228,7 +230,7 @@ private:
 };
 
 void parse_simulation(const Reader& r, const YAML::Node& n, Simulation& sim) {
-  r.check_keys(n, {"dt", "dt_safety", "end_time", "steps", "gravity", "integrator", "output", "self_collisions",
+  r.check_keys(n, {"dt", "dt_safety", "dt_bound", "end_time", "steps", "gravity", "integrator", "output", "self_collisions",
                    "edge_contacts", "mutual_pairs", "contact_closure", "separation_speed", "checkpoint", "limits"},
                "'simulation'");
   if (const auto dt = n["dt"]) {
@@ -243,6 +245,8 @@ void parse_simulation(const Reader& r, const YAML::Node& n, Simulation& sim) {
     sim.dt_safety = r.positive(s, "'dt_safety'");
     if (sim.dt_safety > 1) r.fail(s, "'dt_safety' must be in (0, 1], got " + s.Scalar());
   }
+  if (const auto b = n["dt_bound"])
+    sim.dt_bound = r.choice<DtBound>(b, "dt_bound", {{"element", DtBound::element}, {"mesh", DtBound::mesh}});
   const auto end = n["end_time"];
   const auto steps = n["steps"];
   if (end && steps) r.fail(steps, "give either 'end_time' or 'steps' in 'simulation', not both");
@@ -515,6 +519,7 @@ void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const 
     r.check_keys(n, {"name", "material", "mesh", "primitive", "transform", "velocity", "kinematic", "fixed", "motion", "instances"},
                  "an object");
     EntrySpec spec;
+    spec.index = entry - 1;
     spec.name = n["name"] ? r.text(n["name"], "'name'") : "object" + std::to_string(entry);
     const std::string where = "object '" + spec.name + "'";
     spec.material = material_index(r, r.require(n, "material", where), scene.materials);
@@ -656,14 +661,28 @@ double max_tet_frequency(const SceneObject& o, const Material& mat) {
   return nan ? std::numeric_limits<double>::quiet_NaN() : wmax;
 }
 
-/// Folds object i, with highest tet frequency w, into the scene's limit: its damped bound
-/// (damped_stable_step with its material's Rayleigh damping) if smaller. The bound falls
-/// with w, so the element maximum is safe for every mode of the object (stability.cpp).
-void take_smaller(StableStep& stable, const Scene& scene, std::size_t i, double w) {
-  const Material& mat = scene.materials[scene.objects[i].material];
+/// Folds object i, with highest tet frequency w_element, into the scene's limit by
+/// `bound`: its damped bound (damped_stable_step with its material's Rayleigh damping) at
+/// its omega if smaller. The bound falls with omega, so an upper bound on the object's
+/// omega_max is safe for every mode (stability.cpp). The mesh bound is computed once per
+/// scene entry and material (`mesh_cache`: entry -> omega); the copies of an entry differ
+/// by rigid motions, which change no eigenvalue, and each keeps its own element bound as
+/// the ceiling.
+void take_smaller(StableStep& stable, const Scene& scene, std::size_t i, double w_element, DtBound bound,
+                  std::map<int, MeshFrequency>& mesh_cache) {
+  const SceneObject& o = scene.objects[i];
+  const Material& mat = scene.materials[o.material];
+  double w = w_element, estimate = 0;
+  if (bound == DtBound::mesh) {
+    auto it = o.entry >= 0 ? mesh_cache.find(o.entry) : mesh_cache.end();
+    if (it == mesh_cache.end()) it = mesh_cache.insert_or_assign(o.entry, mesh_max_frequency(o.mesh, mat, w_element)).first;
+    w = std::min(w_element, it->second.omega);
+    estimate = it->second.estimate;
+  }
   const double dt = damped_stable_step(w, mat.damping_mass, mat.damping_stiffness);
   // Ties keep the first object: the result does not depend on anything but the scene.
-  if (stable.object < 0 || dt < stable.dt) stable = {dt, static_cast<int>(i), w, mat.damping_mass, mat.damping_stiffness};
+  if (stable.object < 0 || dt < stable.dt)
+    stable = {dt, static_cast<int>(i), w, mat.damping_mass, mat.damping_stiffness, bound, w_element, estimate};
 }
 
 }  // namespace
@@ -722,6 +741,7 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path, c
   // 'young', tiny 'density') or tets whose volume underflows (extreme 'size' ratios) give
   // inf or NaN, and then no time step is stable.
   StableStep stable;
+  std::map<int, MeshFrequency> mesh_cache;
   for (std::size_t i = 0; i < scene.objects.size(); ++i) {
     const SceneObject& o = scene.objects[i];
     if (o.kinematic) continue;
@@ -733,7 +753,7 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path, c
         << "value: check 'young' and 'density' and that its tets are not flattened to zero volume)";
       r.fail(root["objects"], s.str());
     }
-    take_smaller(stable, scene, i, w);
+    take_smaller(stable, scene, i, w, scene.sim.dt_bound, mesh_cache);
   }
   if (scene.sim.dt_auto) {
     if (!std::isfinite(stable.dt))
@@ -787,11 +807,15 @@ Scene load_scene(const std::string& path, const SceneLimits& limits) {
   return load_scene_from_string(ss.str(), path, limits);
 }
 
-StableStep stable_step(const Scene& scene) {
+StableStep stable_step(const Scene& scene) { return stable_step(scene, scene.sim.dt_bound); }
+
+StableStep stable_step(const Scene& scene, DtBound bound) {
   StableStep stable;
+  std::map<int, MeshFrequency> mesh_cache;
   for (std::size_t i = 0; i < scene.objects.size(); ++i)
     if (!scene.objects[i].kinematic)
-      take_smaller(stable, scene, i, max_tet_frequency(scene.objects[i], scene.materials[scene.objects[i].material]));
+      take_smaller(stable, scene, i, max_tet_frequency(scene.objects[i], scene.materials[scene.objects[i].material]),
+                   bound, mesh_cache);
   return stable;
 }
 
@@ -799,6 +823,17 @@ double stable_time_step(const Scene& scene) { return stable_step(scene).dt; }
 
 std::string StableStep::explain(const Scene& scene) const {
   std::ostringstream s;
+  if (bound == DtBound::mesh && object >= 0) {
+    const SceneObject& o = scene.objects[static_cast<std::size_t>(object)];
+    s << "object '" << o.name << "': 2 / the highest frequency of its assembled mesh, at most " << omega
+      << " rad/s (mesh bound, certified; Lanczos estimate " << omega_estimate << " rad/s, element bound "
+      << omega_element << " rad/s)";
+    if (damped())
+      s << ", lowered by the Rayleigh damping of material '" << scene.materials[o.material].name << "' (mass "
+        << alpha << " /s, stiffness " << beta << " s; damping ratio " << damping_ratio() << ")";
+    s << "; docs/models.md";
+    return s.str();
+  }
   if (!damped() || object < 0) {
     s << "2 / the highest element frequency, docs/models.md";
     return s.str();

@@ -432,3 +432,20 @@ TEST(SceneParser, ContactClosureIsLocalOrCoupled) {
   expect_error(scene_with(kBox, "  dt: auto\n  steps: 10\n  contact_closure: global\n"),
                {"scene.yaml:4:", "contact_closure", "local", "coupled"});
 }
+
+// 'dt_bound' picks the bound on each object's highest frequency: 'element' (the default,
+// Irons' bound) or 'mesh' (the assembled mesh's, certified; tests/sim/test_mesh_bound.cpp).
+// A fixed dt between the two (the cube's element limit is 0.0252 s, its true limit 0.033
+// s) warns under the element bound only; anything else is an input error at the key.
+TEST(SceneParser, DtBoundIsElementOrMesh) {
+  const Scene e = load_scene_from_string(scene_with(kBox, "  dt: 0.03\n  steps: 10\n"), "scene.yaml");
+  EXPECT_EQ(e.sim.dt_bound, DtBound::element);
+  EXPECT_EQ(e.warnings.size(), 1u);
+  const Scene m = load_scene_from_string(scene_with(kBox, "  dt: 0.03\n  steps: 10\n  dt_bound: mesh\n"), "scene.yaml");
+  EXPECT_EQ(m.sim.dt_bound, DtBound::mesh);
+  EXPECT_TRUE(m.warnings.empty()) << m.warnings[0];
+  EXPECT_LT(stable_step(m).dt, true_stable_step(m));
+  EXPECT_GT(stable_step(m).dt, 0.999 * true_stable_step(m));
+  expect_error(scene_with(kBox, "  dt: auto\n  steps: 10\n  dt_bound: meshes\n"),
+               {"scene.yaml:4:", "unknown dt_bound 'meshes'", "expected one of: element mesh"});
+}
