@@ -315,8 +315,10 @@ void CollisionDetector::Impl::select_points(const World& w, double grow) {
       if (bad_vertex[static_cast<std::size_t>(v)]) continue;
       const V3 p = load(x, v);
       bool take = self_active[k] != 0;
-      for (std::size_t q = 0; !take && q < partners[k].size(); ++q)
-        take = grown(object_box[static_cast<std::size_t>(partners[k][q])], grow).contains(p);
+      for (std::size_t q = 0; !take && q < partners[k].size(); ++q) {
+        const Box& b = object_box[static_cast<std::size_t>(partners[k][q])];
+        take = grow > 0 ? grown(b, grow).contains(p) : b.contains(p);
+      }
       if (!take) continue;
       object_points[k].push_back(v);
       point_box[k].add(p);
