@@ -48,6 +48,27 @@ inline void translate_object(World& w, int object, const std::array<double, 3>& 
       for (int d = 0; d < 3; ++d) w.x[3 * v + d] += t[d];
 }
 
+/// Objects 0 .. n-1 of a scene drifting through each other: step() moves each by `speed`
+/// [m] in its own random direction and jitters every vertex by up to `jitter` [m].
+struct Drift {
+  std::mt19937_64 g;
+  std::uniform_real_distribution<double> u{-1, 1};
+  std::vector<std::array<double, 3>> v;
+  double jitter;
+  Drift(std::uint64_t seed, int n, double speed, double jitter_) : g(seed), jitter(jitter_) {
+    for (int o = 0; o < n; ++o) {
+      std::array<double, 3> d{u(g), u(g), u(g)};
+      const double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+      for (double& c : d) c *= speed / len;
+      v.push_back(d);
+    }
+  }
+  void step(World& w) {
+    for (std::size_t o = 0; o < v.size(); ++o) translate_object(w, static_cast<int>(o), v[o]);
+    for (double& c : w.x) c += jitter * u(g);
+  }
+};
+
 /// (point, other object) of every surface vertex strictly inside a tet of another object.
 inline std::set<std::pair<index_t, std::int32_t>> brute_force_pairs(const World& w) {
   const collide::CollisionTopology topo = collide::build_collision_topology(w);

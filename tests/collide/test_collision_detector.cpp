@@ -332,18 +332,9 @@ TEST(CollisionDetector, KeptCandidatesFindEveryHit) {
     self.self_collisions = true;
     ASSERT_GT(kept.point_skin, 0);
     CollisionDetector a_det(w, kept), b_det(w, fresh), self_det(w, self);
-    std::mt19937_64 g(seed);
-    std::uniform_real_distribution<double> u(-1, 1);
-    std::vector<std::array<double, 3>> drift;
-    for (int o = 0; o < 6; ++o) {
-      std::array<double, 3> v{u(g), u(g), u(g)};
-      const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-      for (double& c : v) c *= 0.02 * h / n;
-      drift.push_back(v);
-    }
+    Drift drift(seed, 6, 0.02 * h, 0.005 * h);
     for (int step = 0; step < 60; ++step) {
-      for (int o = 0; o < 6; ++o) translate_object(w, o, drift[static_cast<std::size_t>(o)]);
-      for (double& c : w.x) c += 0.005 * h * u(g);
+      drift.step(w);
       std::vector<Collision> a, b;
       CollisionStats sa, sb;
       a_det.detect(w, nullptr, a, sa);
