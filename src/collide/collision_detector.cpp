@@ -187,8 +187,8 @@ struct CollisionDetector::Impl {
 
   // Candidates kept across steps (docs/collision.md, "Candidates kept across steps"): per
   // tet, the query points that the grid found within `kept_skin` of its box at the
-  // positions kept_x. While no vertex has moved more than half the skin along any axis
-  // since, they hold every point that can be in the tet's box now.
+  // positions kept_x. While the objects have moved little relative to each other since
+  // (kept_usable), they hold every point that can be in the tet's box now.
   struct KeptTet {
     index_t tet;
     std::uint32_t begin, count;  // its points: kept_k[begin .. begin + count)
