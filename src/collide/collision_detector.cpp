@@ -176,6 +176,7 @@ struct CollisionDetector::Impl {
   std::vector<InsidePoint> group_points;    // pairs[q].p: each group's points as one ascending array
   std::vector<std::int32_t> penetrated;
   std::vector<double> normals;
+  std::vector<double> face_normals;          // (s_local,3) work space of smoothed_vertex_normals
   std::vector<std::int64_t> normal_degenerate;
   std::vector<DepthCounters> group_counts;
   std::vector<DepthScratch> scratch;
@@ -587,10 +588,12 @@ void CollisionDetector::Impl::depth(const World& w, const double* x_start, std::
 
   // Normals and hierarchies of the penetrated objects at x~ (each object writes its own).
   normals.resize(3 * w.n_local());
+  face_normals.resize(w.triangles.size());
   normal_degenerate.assign(penetrated.size(), 0);
   parallel_for_dynamic(penetrated.size(), [&](std::size_t k, int) {
     const auto b = static_cast<std::size_t>(penetrated[k]);
-    smoothed_vertex_normals(x, w.triangles.data(), topo, topo.objects[b], normals.data(), normal_degenerate[k]);
+    smoothed_vertex_normals(x, w.triangles.data(), topo, topo.objects[b], face_normals.data(), normals.data(),
+                            normal_degenerate[k]);
     bvh[b].refit(x, w.triangles.data());
   });
   for (std::int64_t d : normal_degenerate) st.degenerate_skipped += d;

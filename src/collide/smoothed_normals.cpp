@@ -13,10 +13,21 @@ V3 vertex_normal(const double* x, const index_t* tri, const CollisionTopology& t
 }
 
 void smoothed_vertex_normals(const double* x, const index_t* tri, const CollisionTopology& topo,
-                             const ObjectInfo& object, double* normals, std::int64_t& degenerate) {
+                             const ObjectInfo& object, double* face, double* normals, std::int64_t& degenerate) {
+  // Each triangle's cross product once (vertex_normal computes it once per corner: the
+  // same operands in the same order, so the same bits), then the per-vertex sums.
+  for (index_t t : object.triangles) {
+    const index_t* tv = tri + 3 * static_cast<std::size_t>(t);
+    const V3 a = load(x, tv[0]);
+    const V3 n = cross(load(x, tv[1]) - a, load(x, tv[2]) - a);
+    for (int d = 0; d < 3; ++d) face[3 * static_cast<std::size_t>(t) + d] = n[d];
+  }
   std::int64_t bad = 0;
   for (index_t v : object.surface_vertices) {
-    const V3 n = vertex_normal(x, tri, topo, v);
+    V3 sum{0, 0, 0};
+    for (std::size_t k = topo.tri_begin[static_cast<std::size_t>(v)]; k < topo.tri_begin[static_cast<std::size_t>(v) + 1]; ++k)
+      sum = sum + load(face, topo.tri_of[k]);
+    const V3 n = normalized(sum);
     if (n[0] == 0 && n[1] == 0 && n[2] == 0) ++bad;
     for (int d = 0; d < 3; ++d) normals[3 * static_cast<std::size_t>(v) + d] = n[d];
   }

@@ -16,9 +16,11 @@ namespace softcontact::collide {
 /// Writes n_v to normals[3v .. 3v + 2] for every surface vertex v of `object`, from the
 /// incident triangles in ascending order (a fixed summation order). Where the sum
 /// vanishes (all incident triangles degenerate, or cancelling) n_v is zero and counted
-/// in `degenerate`.
+/// in `degenerate`. `face` (s,3), indexed by triangle row, receives the cross products
+/// (x1 - x0) x (x2 - x0) of the object's triangles on the way (work space: each is
+/// computed once, not once per corner).
 void smoothed_vertex_normals(const double* x, const index_t* tri, const CollisionTopology& topo,
-                             const ObjectInfo& object, double* normals, std::int64_t& degenerate);
+                             const ObjectInfo& object, double* face, double* normals, std::int64_t& degenerate);
 
 /// The same n_v for one surface vertex v (zero where the sum vanishes).
 V3 vertex_normal(const double* x, const index_t* tri, const CollisionTopology& topo, index_t v);
