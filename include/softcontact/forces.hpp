@@ -101,13 +101,17 @@ public:
   /// Rayleigh damping at World::v: -alpha m v on movable vertices and the models'
   /// stiffness-proportional damping -beta K v (docs/models.md). Implicit Euler passes
   /// false: it treats damping inside its linear system.
-  void add_forces(const World& w, std::vector<double>& f, bool damping) {
-    compute_tet_forces(w, damping);
-    gather_forces(w, f, damping);
-  }
+  ///
+  /// Objects of at most kFusedTets tets are evaluated one at a time, the gather of its
+  /// vertices right after its kernels while its corner forces are still in the core's
+  /// cache (the separate gather read them back from memory: as long as the kernels on
+  /// the torus drop); larger objects in the two phases below. The same kernels and the
+  /// same sums in the same order: bitwise the result of the two phases.
+  void add_forces(const World& w, std::vector<double>& f, bool damping);
 
-  /// The two phases of add_forces, separately (benchmarks): the per-tet kernels into the
-  /// internal buffer, then the per-vertex gather (and the -alpha m v term) into f.
+  /// The two phases of add_forces, separately, over every object (benchmarks, tests):
+  /// the per-tet kernels into the internal buffer, then the per-vertex gather (and the
+  /// -alpha m v term) into f.
   void compute_tet_forces(const World& w, bool damping);
   void gather_forces(const World& w, std::vector<double>& f, bool damping) const;
 
@@ -149,6 +153,17 @@ private:
     std::int32_t count, segment;
   };
   std::vector<Block> blocks_;             ///< active tets in blocks of at most kBlock, one segment each
+  /// add_forces' plan: objects evaluated whole (their blocks [block_begin, block_end) and
+  /// their vertices [vertex_begin, vertex_end), which only their own tets touch), then
+  /// the blocks and the vertex ranges of everything else in two phases.
+  struct FusedObject {
+    std::size_t block_begin, block_end, vertex_begin, vertex_end;
+  };
+  std::vector<FusedObject> fused_;
+  std::vector<std::size_t> unfused_blocks_;                      ///< indices into blocks_
+  std::vector<std::pair<std::size_t, std::size_t>> unfused_vertices_;  ///< ascending ranges [begin, end)
+  void gather_range(const World& w, std::vector<double>& f, bool damping, std::size_t begin, std::size_t end) const;
+  void run_block(const World& w, bool damping, std::size_t k);
   std::vector<double> vertex_alpha_;      ///< (n_local) Rayleigh alpha of the vertex's material [1/s]
   std::vector<std::int64_t> inc_offset_;  ///< (n_owned + 1) CSR offsets into inc_slot_
   std::vector<std::int32_t> inc_slot_;    ///< (4 m_local) buffer offset of (tet, corner); components at +0, +kLanes, +2 kLanes

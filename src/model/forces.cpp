@@ -35,6 +35,11 @@ static_assert(kBlock % (2 * kLanes) == 0, "blocks must start on whole chunks (an
 /// than it saves. (Which thread adds what never changes the result.)
 constexpr std::ptrdiff_t kParallelVertices = 4096;
 
+/// add_forces evaluates an object of at most this many tets whole, kernels then gather:
+/// its corner forces, 96 bytes a tet (384 KiB), stay in a core's L2 cache (1 MiB on the
+/// machine of docs/benchmarks.md) between the two.
+constexpr std::size_t kFusedTets = 4096;
+
 LawParams params_of(const ElasticForces::Segment& s) { return {{s.lambda, s.mu}, s.young, s.beta}; }
 
 }  // namespace
@@ -144,6 +149,51 @@ ElasticForces::ElasticForces(const Scene& scene, const World& w) {
   // Tets are stored in increasing global id (objects in order, each object's tets in
   // order), so filling in tet order has already sorted every list.
   for (std::size_t t = 1; t < m; ++t) SC_ASSERT(w.tet_gid[t - 1] < w.tet_gid[t]);
+
+  // add_forces' plan. A small object is evaluated whole when its tets' owned corners span
+  // one range of vertices that belong to it alone (then no other tet adds to them);
+  // should any range overlap another (never, for objects stored contiguously), nothing is
+  // fused.
+  std::vector<std::uint8_t> covered(no, 0);
+  bool fusable = true;
+  std::size_t block = 0;
+  for (const Segment& s : segments_) {
+    const std::size_t b0 = block;
+    while (block < blocks_.size() && &segments_[static_cast<std::size_t>(blocks_[block].segment)] == &s) ++block;
+    if (s.end - s.begin > kFusedTets) {
+      for (std::size_t k = b0; k < block; ++k) unfused_blocks_.push_back(k);
+      continue;
+    }
+    std::size_t v0 = no, v1 = 0;
+    for (std::size_t t = s.begin; t < s.end; ++t)
+      for (int c = 0; c < 4; ++c) {
+        const auto v = static_cast<std::size_t>(w.tets[4 * t + c]);
+        if (v < no) {
+          v0 = std::min(v0, v);
+          v1 = std::max(v1, v + 1);
+        }
+      }
+    bool own = v0 < v1;
+    for (std::size_t i = v0; own && i < v1; ++i) own = w.vertex_object[i] == s.object && !covered[i];
+    if (!own) {
+      fusable = fusable && v0 >= v1;  // an object with no owned corner has nothing to gather
+      for (std::size_t k = b0; k < block; ++k) unfused_blocks_.push_back(k);
+      continue;
+    }
+    std::fill(covered.begin() + static_cast<std::ptrdiff_t>(v0), covered.begin() + static_cast<std::ptrdiff_t>(v1), 1);
+    fused_.push_back({b0, block, v0, v1});
+  }
+  if (!fusable) {
+    fused_.clear();
+    unfused_blocks_.resize(blocks_.size());
+    std::iota(unfused_blocks_.begin(), unfused_blocks_.end(), std::size_t{0});
+    std::fill(covered.begin(), covered.end(), 0);
+  }
+  for (std::size_t i = 0; i < no; ++i)
+    if (!covered[i]) {
+      if (unfused_vertices_.empty() || unfused_vertices_.back().second != i) unfused_vertices_.push_back({i, i});
+      ++unfused_vertices_.back().second;
+    }
 }
 
 namespace {
@@ -170,39 +220,80 @@ void block_forces(const TetView& T, std::size_t t0, std::size_t t1, const Elasti
 
 }  // namespace
 
-void ElasticForces::compute_tet_forces(const World& w, bool damping) {
+void ElasticForces::run_block(const World& w, bool damping, std::size_t k) {
   const TetView T = make_view(corner_, dm_inv_, volume_, inv_rest_length_);
-  const double* x = w.x.data();
-  const double* v = w.v.data();
-  double* out = tet_force_.data();
+  const Block& b = blocks_[k];
+  const Segment& s = segments_[static_cast<std::size_t>(b.segment)];
+  block_forces(T, b.begin, b.begin + static_cast<std::size_t>(b.count), s, damping, w.x.data(), w.v.data(),
+               tet_force_.data() + 12 * (s.padded_begin + (b.begin - s.begin)));
+}
+
+void ElasticForces::compute_tet_forces(const World& w, bool damping) {
   const std::ptrdiff_t nb = static_cast<std::ptrdiff_t>(blocks_.size());
 #pragma omp parallel for schedule(static) if (nb > 1)
-  for (std::ptrdiff_t k = 0; k < nb; ++k) {
-    const Block& b = blocks_[k];
-    const Segment& s = segments_[b.segment];
-    block_forces(T, b.begin, b.begin + static_cast<std::size_t>(b.count), s, damping, x, v,
-                 out + 12 * (s.padded_begin + (b.begin - s.begin)));
+  for (std::ptrdiff_t k = 0; k < nb; ++k) run_block(w, damping, static_cast<std::size_t>(k));
+}
+
+namespace {
+
+/// f_i += the sum of vertex i's corner forces in incidence order (ascending tet global
+/// id), and the -alpha m v term.
+inline void gather_vertex(const World& w, std::vector<double>& f, bool damping, const double* tf,
+                          const std::int64_t* offset, const std::int32_t* slot, const double* alpha, std::size_t i) {
+  double acc[3] = {0, 0, 0};
+  for (std::int64_t k = offset[i]; k < offset[i + 1]; ++k) {
+    const double* c = tf + slot[k];
+    acc[0] += c[0];
+    acc[1] += c[kLanes];
+    acc[2] += c[2 * kLanes];
   }
+  double* fi = &f[3 * i];
+  if (damping && w.inv_mass[i] != 0 && alpha[i] > 0) {
+    const double am = alpha[i] * w.mass[i];
+    for (int d = 0; d < 3; ++d) acc[d] -= am * w.v[3 * i + d];
+  }
+  for (int d = 0; d < 3; ++d) fi[d] += acc[d];
+}
+
+}  // namespace
+
+void ElasticForces::gather_range(const World& w, std::vector<double>& f, bool damping, std::size_t begin,
+                                 std::size_t end) const {
+  for (std::size_t i = begin; i < end; ++i)
+    gather_vertex(w, f, damping, tet_force_.data(), inc_offset_.data(), inc_slot_.data(), vertex_alpha_.data(), i);
 }
 
 void ElasticForces::gather_forces(const World& w, std::vector<double>& f, bool damping) const {
-  const double* tf = tet_force_.data();
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(w.n_owned);
 #pragma omp parallel for schedule(static) if (n >= kParallelVertices)
-  for (std::ptrdiff_t i = 0; i < n; ++i) {
-    double acc[3] = {0, 0, 0};
-    for (std::int64_t k = inc_offset_[i]; k < inc_offset_[i + 1]; ++k) {
-      const double* c = tf + inc_slot_[k];
-      acc[0] += c[0];
-      acc[1] += c[kLanes];
-      acc[2] += c[2 * kLanes];
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+    gather_vertex(w, f, damping, tet_force_.data(), inc_offset_.data(), inc_slot_.data(), vertex_alpha_.data(),
+                  static_cast<std::size_t>(i));
+}
+
+void ElasticForces::add_forces(const World& w, std::vector<double>& f, bool damping) {
+  const auto nf = static_cast<std::ptrdiff_t>(fused_.size());
+  const auto nb = static_cast<std::ptrdiff_t>(unfused_blocks_.size());
+  // Every object and every block writes only its own corner forces and vertices, so
+  // neither the schedule nor the thread count can change f.
+#pragma omp parallel if (nf + nb > 1)
+  {
+#pragma omp for schedule(dynamic, 1) nowait
+    for (std::ptrdiff_t k = 0; k < nf; ++k) {
+      const FusedObject& o = fused_[static_cast<std::size_t>(k)];
+      for (std::size_t b = o.block_begin; b < o.block_end; ++b) run_block(w, damping, b);
+      gather_range(w, f, damping, o.vertex_begin, o.vertex_end);
     }
-    double* fi = &f[3 * i];
-    if (damping && w.inv_mass[i] != 0 && vertex_alpha_[i] > 0) {
-      const double am = vertex_alpha_[i] * w.mass[i];
-      for (int d = 0; d < 3; ++d) acc[d] -= am * w.v[3 * i + d];
+#pragma omp for schedule(static)
+    for (std::ptrdiff_t k = 0; k < nb; ++k) run_block(w, damping, unfused_blocks_[static_cast<std::size_t>(k)]);
+    // (the loop's barrier: every unfused block is done before its vertices are gathered)
+    for (const auto& [begin, end] : unfused_vertices_) {
+      const auto n = static_cast<std::ptrdiff_t>(end - begin);
+#pragma omp for schedule(static)
+      for (std::ptrdiff_t i = 0; i < n; ++i)
+        gather_vertex(w, f, damping, tet_force_.data(), inc_offset_.data(), inc_slot_.data(), vertex_alpha_.data(),
+                      begin + static_cast<std::size_t>(i));
     }
-    for (int d = 0; d < 3; ++d) fi[d] += acc[d];
   }
 }
 

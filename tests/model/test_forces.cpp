@@ -279,6 +279,54 @@ TEST(ElasticForces, SumDoesNotDependOnThreadCount) {
   }
 }
 
+// add_forces evaluates small objects whole (kernels, then the gather of their vertices)
+// and larger ones in two phases. Reference: every tet's corner forces (tet_forces, one
+// tet at a time) added to its corners in ascending tet order, the order the gather
+// promises, so the result must be bitwise the same for any thread count. The scene mixes
+// an object above the fused size (box of 12 x 12 x 6 cells: 5,184 tets > 4,096), small
+// ones before and after it, and a kinematic one (no forces at all).
+TEST(ElasticForces, ObjectsEvaluatedWholeAddInTetOrder) {
+  const Scene s = load_scene_from_string(
+      "simulation: {dt: 1e-4, steps: 1, gravity: [0, 0, 0]}\n"
+      "materials:\n  - {name: m, model: neohookean, young: 1e5, poisson: 0.3, density: 1000}\n"
+      "  - {name: c, model: corotational, young: 1e5, poisson: 0.3, density: 1000}\n"
+      "objects:\n"
+      "  - {material: m, primitive: {type: sphere, radius: 0.2, resolution: 4}}\n"
+      "  - {material: c, primitive: {type: box, size: [1, 1, 0.5], cells: [12, 12, 6]}, transform: {translate: [0, 0, 1]}}\n"
+      "  - {material: m, primitive: {type: box, size: [0.3, 0.3, 0.3], cells: [2, 2, 2]}, kinematic: true,\n"
+      "     transform: {translate: [1, 0, 0]}}\n"
+      "  - {material: c, primitive: {type: sphere, radius: 0.2, resolution: 5}, transform: {translate: [0, 1, 0]}}\n",
+      "test.yaml");
+  World w = build_world(s, block_partition(s, 1), 0);
+  ASSERT_GT(w.m_owned, std::size_t{4096});
+  ElasticForces ef(s, w);
+  perturb(w.x, 0.01, 21);
+
+  std::vector<double> ref(w.x.size(), 0.0);
+  for (std::size_t t = 0; t < w.m_owned; ++t) {
+    if (s.objects[static_cast<std::size_t>(w.tet_object[t])].kinematic) continue;
+    double c[12];
+    ef.tet_forces(t, w.x.data(), c);
+    for (int k = 0; k < 4; ++k)
+      for (int d = 0; d < 3; ++d) ref[3 * static_cast<std::size_t>(w.tets[4 * t + k]) + d] += c[3 * k + d];
+  }
+  double fmax = 0;
+  for (double v : ref) fmax = std::max(fmax, std::abs(v));
+  ASSERT_GT(fmax, 0);
+  const int before = omp_get_max_threads();
+  for (int threads : {1, 2, 3}) {
+    omp_set_num_threads(threads);
+    std::vector<double> f(w.x.size(), 0.0);
+    ef.add_forces(w, f, false);
+    for (std::size_t k = 0; k < f.size(); ++k) ASSERT_EQ(f[k], ref[k]) << "dof " << k << ", " << threads << " threads";
+    std::vector<double> g(w.x.size(), 0.0);
+    ef.compute_tet_forces(w, false);
+    ef.gather_forces(w, g, false);
+    for (std::size_t k = 0; k < g.size(); ++k) ASSERT_EQ(g[k], ref[k]) << "dof " << k << " (two phases)";
+  }
+  omp_set_num_threads(before);
+}
+
 TEST(ElasticForces, MeasureCountsInvertedTets) {
   const Scene s = box("neohookean");
   World w = build_world(s, block_partition(s, 1), 0);
