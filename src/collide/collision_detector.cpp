@@ -127,6 +127,20 @@ struct TetCandidate {
   bool finish(std::vector<Hit>& out) {
     if (count == 0) return true;
     const index_t* tv = &w.tets[4 * static_cast<std::size_t>(tet)];
+    if (self) {
+      // A self-tested tet's own corners are always in its box and never count (below):
+      // dropped first, so that a tet with nothing else sets up no faces (most tets of a
+      // self-tested object; chess500 spent 16 % of its step there).
+      std::size_t n = 0;
+      for (std::size_t q = 0; q < count; ++q) {
+        const std::uint32_t k = passed[q];
+        const index_t v = pts.point[k];
+        passed[n] = k;
+        n += (tv[0] != v) & (tv[1] != v) & (tv[2] != v) & (tv[3] != v);
+      }
+      count = n;
+      if (count == 0) return true;
+    }
     TetFaces faces;
     if (!faces.setup(w.x.data(), tv, topo.boundary_mask[static_cast<std::size_t>(tet)])) return false;
     const double* px = pts.x;
