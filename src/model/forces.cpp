@@ -287,8 +287,9 @@ void ElasticForces::add_forces(const World& w, std::vector<double>& f, bool damp
 #pragma omp for schedule(static)
     for (std::ptrdiff_t k = 0; k < nb; ++k) run_block(w, damping, unfused_blocks_[static_cast<std::size_t>(k)]);
     // (the loop's barrier: every unfused block is done before its vertices are gathered)
-    for (const auto& [begin, end] : unfused_vertices_) {
-      const auto n = static_cast<std::ptrdiff_t>(end - begin);
+    for (const std::pair<std::size_t, std::size_t>& range : unfused_vertices_) {
+      const std::size_t begin = range.first;  // (no structured binding: clang's OpenMP cannot capture one)
+      const auto n = static_cast<std::ptrdiff_t>(range.second - begin);
 #pragma omp for schedule(static)
       for (std::ptrdiff_t i = 0; i < n; ++i)
         gather_vertex(w, f, damping, tet_force_.data(), inc_offset_.data(), inc_slot_.data(), vertex_alpha_.data(),
