@@ -105,4 +105,14 @@ void sweep_pairs(const std::vector<Box>& box, const std::vector<std::int32_t>& i
   }
 }
 
+/// Grows `b` to hold the point p (3 doubles). Unlike Box::add, a NaN coordinate is not
+/// skipped: it replaces the bound, so that the box of an object with a non-finite
+/// position can compare false (as the object boxes have always been built).
+inline void add_point(Box& b, const double* p) {
+  for (int d = 0; d < 3; ++d) {
+    if (!(p[d] >= b.lo[d])) b.lo[d] = p[d];
+    if (!(p[d] <= b.hi[d])) b.hi[d] = p[d];
+  }
+}
+
 }  // namespace softcontact

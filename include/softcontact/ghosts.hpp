@@ -20,11 +20,7 @@ namespace softcontact {
 class Halo;
 class NeighbourExchange;
 
-/// Grows `b` to hold the point p (3 doubles). Unlike Box::add, a NaN coordinate is not
-/// skipped: it replaces the bound, so that the box of an object with a non-finite
-/// position can compare false (as the object boxes have always been built).
-void add_point(Box& b, const double* p);
-/// Each object's box at its initial positions (the scene's meshes).
+/// Each object's box at its initial positions (Scene::shape).
 std::vector<Box> scene_boxes(const Scene& scene);
 /// Median over objects of the largest side of their box.
 double median_object_size(const std::vector<Box>& box);
@@ -36,7 +32,7 @@ class GhostSet {
 public:
   /// The skin starts at `cell_size` (the detector's cell) and may grow to the median
   /// object size as objects move faster.
-  GhostSet(MPI_Comm comm, const Scene& scene, const std::vector<Surface>& surfaces, double cell_size);
+  GhostSet(MPI_Comm comm, const Scene& scene, double cell_size);
   ~GhostSet();
   GhostSet(const GhostSet&) = delete;
   GhostSet& operator=(const GhostSet&) = delete;
@@ -74,7 +70,6 @@ private:
   MPI_Comm comm_;
   int rank_ = 0, nranks_ = 1;
   const Scene& scene_;
-  const std::vector<Surface>& surfaces_;
   double cell_size_ = 0;
   double skin_ = 0;                  // ghost reach: objects closer than this are ghosted
   double max_skin_ = 0;              // the skin's upper bound: the median object size

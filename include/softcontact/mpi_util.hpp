@@ -2,6 +2,9 @@
 // Small MPI conveniences shared by the library and the MPI tests.
 #include <mpi.h>
 
+#include <cstdint>
+#include <vector>
+
 namespace softcontact {
 
 /// This process's rank in `comm`.
@@ -17,5 +20,12 @@ inline int comm_size(MPI_Comm comm) {
   MPI_Comm_size(comm, &s);
   return s;
 }
+
+/// The k-th smallest (from 0) of all ranks' values together, exactly: what
+/// std::nth_element would give on their concatenation, without gathering them. The values
+/// must be non-negative (lengths); a NaN counts as larger than every number. About 64
+/// rounds of one MPI_Allreduce each, every rank counting its own values. Collective;
+/// requires 0 <= k < the total count.
+double kth_smallest(MPI_Comm comm, const std::vector<double>& values, std::int64_t k);
 
 }  // namespace softcontact

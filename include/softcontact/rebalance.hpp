@@ -27,11 +27,11 @@ struct RebalancePolicy {
 /// The partition METIS gives the scene's objects at their initial positions: nodes
 /// weighted by tets (kinematic objects by a tenth of their surface triangles), edges
 /// between objects closer than the median object size. Identical on every rank.
-std::vector<int> initial_partition(const Scene& scene, const std::vector<Surface>& surfaces, int nranks);
+std::vector<int> initial_partition(const Scene& scene, int nranks);
 
 /// The same partition at the object boxes `boxes` (objects that have moved; a box with
 /// a non-finite corner counts as a point at the origin). Identical on every rank.
-std::vector<int> partition_at(const Scene& scene, const std::vector<Surface>& surfaces, std::vector<Box> boxes,
+std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes,
                               int nranks);
 
 /// This rank's figures since the last check: seconds of forces, detection and depth (the
@@ -50,7 +50,7 @@ bool rebalance_due(const RebalancePolicy& policy, std::int64_t step);
 /// the new parts are relabelled to keep objects where they are (rank 0 logs it). Returns
 /// true with `next` set when it repartitioned (`next` may equal `current`). Every rank
 /// takes the same decision. Collective.
-bool rebalance(MPI_Comm comm, const Scene& scene, const std::vector<Surface>& surfaces, const World& w,
+bool rebalance(MPI_Comm comm, const Scene& scene, const World& w,
                const std::vector<int>& current, const RebalancePolicy& policy, std::int64_t step, const RankWork& work,
                std::vector<int>& next);
 
@@ -58,7 +58,7 @@ bool rebalance(MPI_Comm comm, const Scene& scene, const std::vector<Surface>& su
 /// state `now` (rows in w's owned order): returns the World of partition `next` (at the
 /// scene's initial positions, for the models' rest shapes) and, in `then`, the state in
 /// its owned order. Collective (MPI_Alltoallv).
-World migrate_objects(MPI_Comm comm, const Scene& scene, const std::vector<Surface>& surfaces, const World& w,
+World migrate_objects(MPI_Comm comm, const Scene& scene, const World& w,
                       const StepState& now, const std::vector<int>& current, const std::vector<int>& next,
                       StepState& then);
 

@@ -5,13 +5,16 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "softcontact/box.hpp"
 #include "softcontact/material_laws.hpp"
 #include "softcontact/mesh.hpp"
+#include "softcontact/surface.hpp"
 
 namespace softcontact {
 
@@ -71,12 +74,49 @@ struct Motion {
   double active_time(double t0, double t1) const;
 };
 
+/// What every rank knows of an object, whether or not it holds the object's mesh
+/// (Scene::shape): enough to number its vertices, tets and triangles, to weigh it for the
+/// partition and to find its neighbours.
+struct ObjectShape {
+  std::size_t vertices = 0;
+  std::size_t tets = 0;
+  std::size_t triangles = 0;   ///< of its boundary (extract_surface)
+  Box box = Box::none();       ///< at its initial positions; a NaN coordinate replaces the bound (add_point in ghosts.hpp)
+};
+
+/// How an object's mesh is made from its entry's mesh (already scaled, rotated and moved by
+/// the entry's transform), so that a rank can drop the mesh and make it again, bitwise the
+/// same, when it needs it (Scene::mesh, Scene::drop_meshes; docs/architecture.md, "Who
+/// holds which mesh"). The scene parser places every copy through place() itself.
+struct Placement {
+  enum class Kind {
+    kept,          ///< no recipe (a single-copy entry, a checkpoint's mesh, a hand-made object): never dropped
+    offset,        ///< x = base + offset (a grid copy)
+    about_centre,  ///< x = rotation (base - centre) + offset (a random copy: rotated about its centre, moved there)
+  };
+  Kind kind = Kind::kept;
+  std::shared_ptr<const TetMesh> base;                  ///< the entry's mesh, shared by its copies
+  std::array<double, 3> offset{};                       ///< [m]
+  std::array<double, 9> rotation{1, 0, 0, 0, 1, 0, 0, 0, 1};  ///< row-major
+  std::array<double, 3> centre{};                       ///< [m]
+
+  bool can_remake() const { return kind != Kind::kept && base != nullptr; }
+  /// The placed mesh (kind kept: an empty mesh).
+  TetMesh place() const;
+};
+
 /// One object (one instance of a scene entry), mesh in world coordinates.
 struct SceneObject {
   std::string name;            ///< entry name, with "[k]" appended for instance k of a multi-instance entry
   std::string source;          ///< "file.msh" or "primitive sphere" (for summaries)
   int material = 0;            ///< index into Scene::materials
-  TetMesh mesh;
+  /// The placed mesh. Empty on a rank that dropped it (Scene::drop_meshes): read it
+  /// through Scene::mesh(k), which makes it again from `placement` when needed. Mutable
+  /// because it is a cache of a pure function of the scene.
+  mutable TetMesh mesh;
+  Placement placement;
+  mutable std::shared_ptr<const Surface> surface;       ///< cache of Scene::surface(k)
+  mutable std::optional<ObjectShape> shape;             ///< cache of Scene::shape(k)
   Vec3 velocity{};             ///< initial velocity of every vertex [m/s]
   bool kinematic = false;      ///< the whole object is fixed (infinite mass)
   std::vector<Box> fixed;    ///< vertices inside any of these (world coordinates) are fixed
@@ -138,6 +178,37 @@ struct Scene {
 
   std::size_t num_vertices() const;
   std::size_t num_tets() const;
+
+  /// Object k's placed mesh: its own when held, else made again from its placement (and
+  /// then held until the next drop_meshes). Not thread-safe; a reference stays valid until
+  /// drop_meshes.
+  const TetMesh& mesh(std::size_t k) const;
+  /// Object k's mesh for one use, without holding it afterwards: the held mesh, or one made
+  /// for the view alone (whole-scene passes on a rank that dropped meshes: checks,
+  /// verification, fingerprints).
+  class MeshView {
+  public:
+    explicit MeshView(const TetMesh* held) : p_(held) {}
+    explicit MeshView(TetMesh&& made) : own_(std::move(made)), p_(&own_) {}
+    MeshView(const MeshView&) = delete;
+    MeshView& operator=(const MeshView&) = delete;
+    const TetMesh& get() const { return *p_; }
+
+  private:
+    TetMesh own_;
+    const TetMesh* p_;
+  };
+  MeshView view_mesh(std::size_t k) const;
+  /// Object k's boundary (extract_surface of its mesh), extracted on first use.
+  const Surface& surface(std::size_t k) const;
+  /// Object k's counts and initial box, computed on first use (from its mesh) and kept.
+  const ObjectShape& shape(std::size_t k) const;
+  /// Computes every object's shape (from the meshes held now), so that drop_meshes loses
+  /// nothing a rank must know of all objects.
+  void describe_objects() const;
+  /// Drops the mesh and surface of every object with keep[k] == 0 whose placement can make
+  /// it again (shapes are computed first). Returns the bytes of mesh and surface dropped.
+  std::size_t drop_meshes(const std::vector<char>& keep) const;
 };
 
 /// Bounds on the size of a scene, checked before a primitive is generated or an entry is
@@ -148,6 +219,10 @@ struct SceneLimits {
   std::int64_t max_vertices = std::numeric_limits<index_t>::max();  ///< all objects together
   std::int64_t max_tets = std::numeric_limits<index_t>::max() / 4;  ///< all objects together
   std::int64_t max_objects = std::numeric_limits<int>::max();       ///< copies of all entries
+  /// Whether the copies of multi-copy entries keep their placed meshes. Without, each copy
+  /// keeps only its shape and placement, and Scene::mesh makes its mesh when a rank needs
+  /// it (`run` and `bench` load so: docs/architecture.md, "Who holds which mesh").
+  bool hold_copy_meshes = true;
 };
 
 /// Reads, validates and instantiates a scene. Mesh paths are relative to the scene file.

@@ -123,13 +123,14 @@ public:
   /// a run whose energy exploded. Collective.
   std::string locate_energy();
 
-  /// The scene's surfaces (per object).
-  const std::vector<Surface>& surfaces() const { return surfaces_; }
   void set_rebalance_policy(const RebalancePolicy& p) { rebalance_ = p; }
   /// Repartitions done by the rebalance policy so far.
   std::int64_t repartitions() const { return repartitions_; }
   /// Ghost-set rebuilds so far (the halo grows and shrinks as objects move).
   std::int64_t ghost_rebuilds() const;
+  /// Bytes of scene meshes and surfaces this rank has dropped so far (objects it neither
+  /// owns nor ghosts; docs/architecture.md, "Who holds which mesh").
+  std::int64_t dropped_mesh_bytes() const { return dropped_mesh_bytes_; }
   /// Bytes this rank has received through the halo since construction.
   std::int64_t halo_bytes() const;
   /// Collisions of this rank whose triangle lies on an object of another rank, last step.
@@ -147,12 +148,14 @@ private:
   void build_components();
   void rebuild_ghosts(bool force);
   void follow_ghosts();
+  // Drops the meshes of the objects this rank neither owns nor ghosts (Scene::drop_meshes).
+  void drop_unneeded_meshes();
+  double owned_median_edge() const;  // collective
   void maybe_rebalance();
 
   MPI_Comm comm_;
   int rank_ = 0, nranks_ = 1;
   const Scene& scene_;
-  std::vector<Surface> surfaces_;
   std::vector<int> partition_;
   World world_;
   CollisionSettings collision_settings_;
@@ -165,6 +168,7 @@ private:
   std::int64_t timed_steps_ = 0;
   std::int64_t step_ = 0;
   double median_edge_ = 0;
+  std::int64_t dropped_mesh_bytes_ = 0;
   std::int64_t initial_overlaps_ = 0;
   double initial_overlap_depth_ = 0;
   std::unique_ptr<VerifyMesh> verify_mesh_;  // rank 0, built by the first verify()

@@ -28,9 +28,15 @@ class UnconstrainedMotion;
 /// Mean and median length over every tet edge of the scene (an edge counts once per
 /// tet) [m]; the same on every rank.
 void scene_edge_lengths(const Scene& scene, double& mean, double& median);
+/// The mean alone, without holding the lengths: bitwise the mean of scene_edge_lengths.
+double scene_mean_edge(const Scene& scene);
+/// Appends the six edge lengths of every tet of `m`, in tet order [m].
+void append_edge_lengths(const TetMesh& m, std::vector<double>& len);
 /// The detector's settings for the scene: its self-contact and edge-contact keys, and
 /// the mean edge length as the grid's cell size.
 CollisionSettings collision_settings_for(const Scene& scene);
+/// The same with the scene's mean edge length already known (scene_edge_lengths).
+CollisionSettings collision_settings_for(const Scene& scene, double mean_edge);
 
 class SerialStepper {
 public:

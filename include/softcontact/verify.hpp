@@ -86,9 +86,10 @@ struct VerifyMesh {
 /// several tets counted once per tet), so depths / median edge mean the same in both.
 void prepare_verify_mesh(VerifyMesh& mesh, const double* rest, const std::string& source);
 
-/// The scene's VerifyMesh (objects in scene order; `surfaces` = extract_surfaces(scene)),
-/// prepared with the scene's initial positions as rest positions.
-VerifyMesh verify_mesh_of(const Scene& scene, const std::vector<Surface>& surfaces);
+/// The scene's VerifyMesh (objects in scene order, each with its extract_surface), prepared
+/// with the scene's initial positions as rest positions. Meshes this rank dropped are made
+/// for the pass and not kept (Scene::view_mesh).
+VerifyMesh verify_mesh_of(const Scene& scene);
 
 /// The scene's initial positions as one (n,3) array in global vertex order.
 std::vector<double> initial_positions(const Scene& scene);

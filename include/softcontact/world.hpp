@@ -71,22 +71,17 @@ struct World {
 /// split. (Simulations partition with METIS, partition.hpp; this is for tests and tools.)
 std::vector<int> block_partition(const Scene& scene, int nranks);
 
-/// The outward surface of every object of the scene, in scene order.
-std::vector<Surface> extract_surfaces(const Scene& scene);
-
 /// Builds the rank-local state of `rank`: global layout of all objects, then the owned
 /// objects' vertices (lumped masses: a quarter of each incident tet's mass), tets and
 /// outward surface triangles. Vertices of kinematic objects and inside `fixed` boxes get
 /// inverse mass 0. No ghosts (set_ghost_objects adds them).
+/// Every object's counts come from Scene::shape, the owned objects' meshes from Scene::mesh.
 World build_world(const Scene& scene, const std::vector<int>& object_rank, int rank);
-World build_world(const Scene& scene, const std::vector<Surface>& surfaces, const std::vector<int>& object_rank,
-                  int rank);
 
 /// Replaces the ghost part of `w` by the objects `ghosts` (ascending, none owned): their
 /// vertices, tets and surface triangles from the scene, with initial positions (the halo
 /// exchange overwrites them). The owned part, and so every owned local index, is kept.
-void set_ghost_objects(World& w, const Scene& scene, const std::vector<Surface>& surfaces,
-                       const std::vector<int>& ghosts);
+void set_ghost_objects(World& w, const Scene& scene, const std::vector<int>& ghosts);
 
 /// Contiguous runs [begin, begin+count) of global vertex ids owned by this rank, in
 /// ascending order (what a rank writes to the global datasets).

@@ -36,6 +36,14 @@ std::string nearest(const std::string& word, const std::vector<std::string>& can
 
 namespace {
 
+// `run` and `bench` hold only the meshes of the objects each rank owns or ghosts: copies
+// of multi-copy entries are made when needed (docs/architecture.md, "Who holds which mesh").
+SceneLimits copies_made_on_demand() {
+  SceneLimits l;
+  l.hold_copy_meshes = false;
+  return l;
+}
+
 // The run's memory estimate [bytes per rank], for the message when memory runs out.
 double g_memory_estimate = 0;
 
@@ -287,20 +295,22 @@ void print_summary(const Scene& s, std::ostream& out) {
   constexpr std::size_t kShown = 20;
   for (std::size_t k = 0; k < s.objects.size(); ++k) {
     const SceneObject& o = s.objects[k];
+    const Scene::MeshView view = s.view_mesh(k);
+    const TetMesh& mesh = view.get();
     const Material& m = s.materials[o.material];
-    const double mass = m.density * tet_volume_sum(o.mesh);
+    const double mass = m.density * tet_volume_sum(mesh);
     total_mass += mass;
-    tris += extract_surface(o.mesh).num_triangles();
+    tris += s.shape(k).triangles;
     std::size_t fixed = 0;
-    for (std::size_t i = 0; i < o.mesh.num_vertices(); ++i) {
+    for (std::size_t i = 0; i < mesh.num_vertices(); ++i) {
       bool f = o.kinematic;
-      for (const Box& b : o.fixed) f = f || b.contains(&o.mesh.points[3 * i]);
+      for (const Box& b : o.fixed) f = f || b.contains(&mesh.points[3 * i]);
       fixed += f;
     }
     if (k < kShown)
       out << "  " << std::left << std::setw(24) << o.name << std::setw(14) << m.name << std::setw(14)
-          << to_string(m.model) << std::right << std::setw(10) << o.mesh.num_vertices() << std::setw(10)
-          << o.mesh.num_tets() << std::setw(14) << std::setprecision(5) << mass << "  "
+          << to_string(m.model) << std::right << std::setw(10) << mesh.num_vertices() << std::setw(10)
+          << mesh.num_tets() << std::setw(14) << std::setprecision(5) << mass << "  "
           << (o.kinematic ? "all (kinematic)" : std::to_string(fixed)) << "\n";
   }
   if (s.objects.size() > kShown) out << "  ... and " << s.objects.size() - kShown << " more objects\n";
@@ -368,7 +378,7 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
       usage_error("give either a scene or --restart (the checkpoint carries its scene), not both", "run");
     if (a.values.at("--restart").empty()) usage_error("--restart expects a checkpoint file or directory", "run");
   }
-  Scene s = restarting ? load_restart(comm, a.values.at("--restart"), restart) : load_scene(scene_argument(a, "run"));
+  Scene s = restarting ? load_restart(comm, a.values.at("--restart"), restart) : load_scene(scene_argument(a, "run"), copies_made_on_demand());
   apply_overrides(s, opt);
   const int rank = comm_rank(comm), size = comm_size(comm);
   const MemoryEstimate mem = estimate_memory(s, size);
@@ -422,7 +432,7 @@ int cmd_bench(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err
   const std::string per_step = a.values.count("--per-step") ? a.values.at("--per-step") : "";
   if (a.values.count("--csv") && csv.empty()) usage_error("--csv expects a file name", "bench");
   if (a.values.count("--per-step") && per_step.empty()) usage_error("--per-step expects a file name", "bench");
-  const Scene s = load_scene(scene_argument(a, "bench"));
+  const Scene s = load_scene(scene_argument(a, "bench"), copies_made_on_demand());
   const int rank = comm_rank(comm);
   if (rank == 0) print_warnings(s, err);
   BenchFiles files(comm, csv, per_step);

@@ -47,8 +47,9 @@ double meminfo_field(const char* name) { return proc_field("/proc/meminfo", name
 MemoryEstimate estimate_memory(const Scene& scene, int nranks) {
   MemoryEstimate e;
   std::int64_t big_t = 0, big_v = 0;
-  for (const SceneObject& o : scene.objects) {
-    const auto t = static_cast<std::int64_t>(o.mesh.num_tets()), v = static_cast<std::int64_t>(o.mesh.num_vertices());
+  for (std::size_t k = 0; k < scene.objects.size(); ++k) {
+    const ObjectShape& s = scene.shape(k);
+    const auto t = static_cast<std::int64_t>(s.tets), v = static_cast<std::int64_t>(s.vertices);
     e.tets += t;
     e.vertices += v;
     big_t = std::max(big_t, t);

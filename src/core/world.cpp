@@ -15,7 +15,7 @@ std::vector<int> block_partition(const Scene& scene, int nranks) {
   std::vector<int> owner(scene.objects.size(), 0);
   double before = 0;
   for (std::size_t k = 0; k < scene.objects.size(); ++k) {
-    const double t = static_cast<double>(scene.objects[k].mesh.num_tets());
+    const double t = static_cast<double>(scene.shape(k).tets);
     const double mid = before + 0.5 * t;
     owner[k] = std::min(nranks - 1, static_cast<int>(mid / total * nranks));
     before += t;
@@ -23,18 +23,13 @@ std::vector<int> block_partition(const Scene& scene, int nranks) {
   return owner;
 }
 
-std::vector<Surface> extract_surfaces(const Scene& scene) {
-  std::vector<Surface> s(scene.objects.size());
-  for (std::size_t k = 0; k < s.size(); ++k) s[k] = extract_surface(scene.objects[k].mesh);
-  return s;
-}
-
 namespace {
 
 // Appends object k (vertices, tets, surface triangles) to the local arrays.
-void append_object(World& w, const Scene& scene, const Surface& s, int k) {
+void append_object(World& w, const Scene& scene, int k) {
   const SceneObject& o = scene.objects[static_cast<std::size_t>(k)];
-  const TetMesh& m = o.mesh;
+  const TetMesh& m = scene.mesh(static_cast<std::size_t>(k));
+  const Surface& s = scene.surface(static_cast<std::size_t>(k));
   const ObjectLayout& L = w.layout[static_cast<std::size_t>(k)];
   const index_t base = static_cast<index_t>(w.vertex_gid.size());
   w.vertex_offset[static_cast<std::size_t>(k)] = base;
@@ -75,11 +70,6 @@ void append_object(World& w, const Scene& scene, const Surface& s, int k) {
 }  // namespace
 
 World build_world(const Scene& scene, const std::vector<int>& object_rank, int rank) {
-  return build_world(scene, extract_surfaces(scene), object_rank, rank);
-}
-
-World build_world(const Scene& scene, const std::vector<Surface>& surfaces, const std::vector<int>& object_rank,
-                  int rank) {
   World w;
   w.rank = rank;
   const std::size_t no = scene.objects.size();
@@ -87,30 +77,29 @@ World build_world(const Scene& scene, const std::vector<Surface>& surfaces, cons
   w.motion.resize(no);
   w.vertex_offset.assign(no, -1);
   for (std::size_t k = 0; k < no; ++k) {
-    const TetMesh& m = scene.objects[k].mesh;
+    const ObjectShape& m = scene.shape(k);
     w.motion[k] = scene.objects[k].motion;
     ObjectLayout& L = w.layout[k];
     L.vertex_begin = w.global_vertices;
-    L.vertex_count = static_cast<gid_t>(m.num_vertices());
+    L.vertex_count = static_cast<gid_t>(m.vertices);
     L.tet_begin = w.global_tets;
-    L.tet_count = static_cast<gid_t>(m.num_tets());
+    L.tet_count = static_cast<gid_t>(m.tets);
     L.triangle_begin = w.global_triangles;
-    L.triangle_count = static_cast<gid_t>(surfaces[k].num_triangles());
+    L.triangle_count = static_cast<gid_t>(m.triangles);
     L.rank = object_rank[k];
     w.global_vertices += L.vertex_count;
     w.global_tets += L.tet_count;
     w.global_triangles += L.triangle_count;
     if (L.rank == rank) w.owned_objects.push_back(static_cast<int>(k));
   }
-  for (int k : w.owned_objects) append_object(w, scene, surfaces[static_cast<std::size_t>(k)], k);
+  for (int k : w.owned_objects) append_object(w, scene, k);
   w.n_owned = w.vertex_gid.size();
   w.m_owned = w.tet_gid.size();
   w.s_owned = w.triangle_gid.size();
   return w;
 }
 
-void set_ghost_objects(World& w, const Scene& scene, const std::vector<Surface>& surfaces,
-                       const std::vector<int>& ghosts) {
+void set_ghost_objects(World& w, const Scene& scene, const std::vector<int>& ghosts) {
   for (int k : w.ghost_objects) w.vertex_offset[static_cast<std::size_t>(k)] = -1;
   const std::size_t n = w.n_owned, m = w.m_owned, s = w.s_owned;
   w.vertex_gid.resize(n);
@@ -129,7 +118,7 @@ void set_ghost_objects(World& w, const Scene& scene, const std::vector<Surface>&
   w.ghost_objects = ghosts;
   for (int k : ghosts) {
     SC_ASSERT(!w.owns_object(k));
-    append_object(w, scene, surfaces[static_cast<std::size_t>(k)], k);
+    append_object(w, scene, k);
   }
 }
 

@@ -56,12 +56,14 @@ std::uint64_t scene_fingerprint(const Scene& scene) {
       f.value(fr.mu_kinetic);
     }
   f.value(scene.objects.size());
-  for (const SceneObject& o : scene.objects) {
+  for (std::size_t k = 0; k < scene.objects.size(); ++k) {
+    const SceneObject& o = scene.objects[k];
+    const Scene::MeshView mesh = scene.view_mesh(k);
     f.value(o.material);
     f.value(o.kinematic);
     f.value(o.velocity);
-    f.vector(o.mesh.points);
-    f.vector(o.mesh.tets);
+    f.vector(mesh.get().points);
+    f.vector(mesh.get().tets);
     f.value(o.fixed.size());
     for (const Box& b : o.fixed) {
       f.value(b.lo);
@@ -185,7 +187,7 @@ void check_against_scene(const CheckpointInfo& info, const Scene& scene, const s
   // The fingerprint covers both counts; a damaged file may still disagree with itself.
   const auto objects = scene.objects.size();
   std::int64_t vertices = 0;
-  for (const SceneObject& o : scene.objects) vertices += static_cast<std::int64_t>(o.mesh.num_vertices());
+  vertices = static_cast<std::int64_t>(scene.num_vertices());
   if (info.partition.size() != objects || info.boxes.size() != objects)
     throw InputError(path, 0,
                      "not a readable softcontact checkpoint: /run/partition has " + std::to_string(info.partition.size()) +

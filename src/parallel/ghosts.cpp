@@ -10,20 +10,9 @@
 
 namespace softcontact {
 
-void add_point(Box& b, const double* p) {
-  for (int d = 0; d < 3; ++d) {
-    if (!(p[d] >= b.lo[d])) b.lo[d] = p[d];
-    if (!(p[d] <= b.hi[d])) b.hi[d] = p[d];
-  }
-}
-
 std::vector<Box> scene_boxes(const Scene& scene) {
   std::vector<Box> boxes;
-  for (const SceneObject& o : scene.objects) {
-    Box b = Box::none();
-    for (std::size_t v = 0; v < o.mesh.num_vertices(); ++v) add_point(b, &o.mesh.points[3 * v]);
-    boxes.push_back(b);
-  }
+  for (std::size_t k = 0; k < scene.objects.size(); ++k) boxes.push_back(scene.shape(k).box);
   return boxes;
 }
 
@@ -62,8 +51,8 @@ std::vector<Box> object_boxes(MPI_Comm comm, const Scene& scene, const World& w)
   return box;
 }
 
-GhostSet::GhostSet(MPI_Comm comm, const Scene& scene, const std::vector<Surface>& surfaces, double cell_size)
-    : comm_(comm), rank_(comm_rank(comm)), nranks_(comm_size(comm)), scene_(scene), surfaces_(surfaces),
+GhostSet::GhostSet(MPI_Comm comm, const Scene& scene, double cell_size)
+    : comm_(comm), rank_(comm_rank(comm)), nranks_(comm_size(comm)), scene_(scene),
       cell_size_(cell_size), skin_(cell_size), max_skin_(median_object_size(scene_boxes(scene))) {}
 
 GhostSet::~GhostSet() = default;
@@ -107,7 +96,7 @@ bool GhostSet::rebuild(World& w, const std::vector<int>& partition, bool force) 
     return false;
   }
   const bool local_change = force || ghosts != w.ghost_objects;
-  if (local_change) set_ghost_objects(w, scene_, surfaces_, ghosts);
+  if (local_change) set_ghost_objects(w, scene_, ghosts);
   if (halo_) bytes_before_ += halo_->bytes_received();
   halo_ = std::make_unique<Halo>(comm_, w);
   halo_->update(w.x.data());

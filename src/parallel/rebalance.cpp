@@ -14,20 +14,20 @@ namespace softcontact {
 
 namespace {
 // Kinematic objects cost no forces, only their share of detection.
-std::int64_t object_work(const Scene& scene, const std::vector<Surface>& surfaces, std::size_t k) {
-  return scene.objects[k].kinematic ? static_cast<std::int64_t>(surfaces[k].num_triangles() / 10)
-                                    : static_cast<std::int64_t>(scene.objects[k].mesh.num_tets());
+std::int64_t object_work(const Scene& scene, std::size_t k) {
+  const ObjectShape& s = scene.shape(k);
+  return scene.objects[k].kinematic ? static_cast<std::int64_t>(s.triangles / 10) : static_cast<std::int64_t>(s.tets);
 }
 
 // Keep objects where they are as far as the new parts allow: relabel each new part as the
 // old rank it shares the most work with (greedy, heaviest overlaps first).
-void keep_objects_in_place(const Scene& scene, const std::vector<Surface>& surfaces, const std::vector<int>& current,
+void keep_objects_in_place(const Scene& scene, const std::vector<int>& current,
                            int nranks, std::vector<int>& next) {
   const std::size_t no = scene.objects.size();
   const auto nr = static_cast<std::size_t>(nranks);
   std::vector<std::vector<std::int64_t>> overlap(nr, std::vector<std::int64_t>(nr, 0));
   for (std::size_t k = 0; k < no; ++k)
-    overlap[static_cast<std::size_t>(next[k])][static_cast<std::size_t>(current[k])] += object_work(scene, surfaces, k) + 1;
+    overlap[static_cast<std::size_t>(next[k])][static_cast<std::size_t>(current[k])] += object_work(scene, k) + 1;
   std::vector<int> label(nr, -1), taken(nr, 0);
   for (std::size_t round = 0; round < nr; ++round) {
     std::int64_t best = -1;
@@ -63,13 +63,12 @@ VertexState state_row(const StepState& s, std::size_t v) {
 }
 }  // namespace
 
-std::vector<int> partition_at(const Scene& scene, const std::vector<Surface>& surfaces, std::vector<Box> boxes,
-                              int nranks) {
+std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes, int nranks) {
   const std::size_t no = scene.objects.size();
   if (nranks <= 1) return std::vector<int>(no, 0);
   PartitionInput in;
   for (std::size_t k = 0; k < no; ++k) {
-    in.weight.push_back(object_work(scene, surfaces, k));
+    in.weight.push_back(object_work(scene, k));
     for (int d = 0; d < 3; ++d)
       if (!std::isfinite(boxes[k].lo[d]) || !std::isfinite(boxes[k].hi[d]) || !(boxes[k].lo[d] <= boxes[k].hi[d]))
         boxes[k].lo[d] = boxes[k].hi[d] = 0;  // a blown-up object
@@ -83,11 +82,11 @@ bool rebalance_due(const RebalancePolicy& policy, std::int64_t step) {
   return policy.check_every > 0 && step > 0 && step % policy.check_every == 0;
 }
 
-std::vector<int> initial_partition(const Scene& scene, const std::vector<Surface>& surfaces, int nranks) {
-  return partition_at(scene, surfaces, scene_boxes(scene), nranks);
+std::vector<int> initial_partition(const Scene& scene, int nranks) {
+  return partition_at(scene, scene_boxes(scene), nranks);
 }
 
-bool rebalance(MPI_Comm comm, const Scene& scene, const std::vector<Surface>& surfaces, const World& w,
+bool rebalance(MPI_Comm comm, const Scene& scene, const World& w,
                const std::vector<int>& current, const RebalancePolicy& policy, std::int64_t step, const RankWork& work,
                std::vector<int>& next) {
   const int nranks = comm_size(comm);
@@ -100,8 +99,8 @@ bool rebalance(MPI_Comm comm, const Scene& scene, const std::vector<Surface>& su
   const double cross = sum[2] > 0 ? sum[1] / sum[2] : 0;
   // Both figures are reduced, so every rank takes the same decision.
   if (!(imbalance > policy.max_imbalance) && !(cross > policy.max_cross_fraction)) return false;
-  next = partition_at(scene, surfaces, object_boxes(comm, scene, w), nranks);
-  keep_objects_in_place(scene, surfaces, current, nranks, next);
+  next = partition_at(scene, object_boxes(comm, scene, w), nranks);
+  keep_objects_in_place(scene, current, nranks, next);
   std::int64_t moved = 0;
   for (std::size_t k = 0; k < next.size(); ++k) moved += next[k] != current[k] ? 1 : 0;
   if (comm_rank(comm) == 0)
@@ -111,7 +110,7 @@ bool rebalance(MPI_Comm comm, const Scene& scene, const std::vector<Surface>& su
   return true;
 }
 
-World migrate_objects(MPI_Comm comm, const Scene& scene, const std::vector<Surface>& surfaces, const World& w,
+World migrate_objects(MPI_Comm comm, const Scene& scene, const World& w,
                       const StepState& now, const std::vector<int>& current, const std::vector<int>& next,
                       StepState& then) {
   if (next.size() != current.size()) throw RuntimeFailure("migrate: the partition has the wrong size");
@@ -143,7 +142,7 @@ World migrate_objects(MPI_Comm comm, const Scene& scene, const std::vector<Surfa
   MPI_Alltoallv(sbuf.data(), scount.data(), sdisp.data(), MPI_BYTE, rbuf.data(), rcount.data(), rdisp.data(), MPI_BYTE,
                 comm);
 
-  World next_world = build_world(scene, surfaces, next, rank);  // initial positions
+  World next_world = build_world(scene, next, rank);  // initial positions
   then = StepState{};
   then.step = now.step;
   then.anchor_step = now.anchor_step;

@@ -3,6 +3,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <random>
 #include <sstream>
 #include <unordered_map>
@@ -156,12 +157,21 @@ private:
   std::unordered_map<Cell, std::vector<std::size_t>, CellHash> grid_;
 };
 
-SceneObject make_object(const EntrySpec& spec, TetMesh mesh, const std::string& name) {
+SceneObject make_object(const EntrySpec& spec, TetMesh mesh, const std::string& name, Placement placement = {},
+                        const ObjectShape* shape = nullptr) {
   SceneObject o;
   o.name = name;
   o.source = spec.source;
   o.material = spec.material;
   o.mesh = std::move(mesh);
+  o.placement = std::move(placement);
+  if (shape) {
+    // not held: the shape is what every rank needs of the copy without its mesh
+    o.shape = *shape;
+    o.shape->box = Box::none();
+    for (std::size_t i = 0; i < o.mesh.num_vertices(); ++i) add_point(o.shape->box, &o.mesh.points[3 * i]);
+    o.mesh = TetMesh();
+  }
   o.velocity = spec.velocity;
   o.kinematic = spec.kinematic;
   o.fixed = spec.fixed;
@@ -192,21 +202,37 @@ Mat3 rotation_axis_angle(const Vec3& axis, double deg) {
           z * x * C - y * s, z * y * C + x * s, c + z * z * C};
 }
 
-void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects) {
-  const TetMesh base = transformed(spec.mesh, spec.scale, spec.rotation, spec.translate);
+void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool hold_meshes) {
+  if (spec.instancing == EntrySpec::Instancing::single) {
+    // The object is the entry: nothing to share, no recipe (Placement::Kind::kept).
+    objects.push_back(make_object(spec, transformed(spec.mesh, spec.scale, spec.rotation, spec.translate), spec.name));
+    return;
+  }
+  // Copies keep the entry's mesh once, shared, and how each is placed from it, so that a
+  // rank can drop the copies it does not need and make them again bitwise the same
+  // (Placement::place, which places them here too).
+  const auto shared = std::make_shared<const TetMesh>(transformed(spec.mesh, spec.scale, spec.rotation, spec.translate));
+  const TetMesh& base = *shared;
+  ObjectShape copy_shape;  // counts shared by all copies (the boundary is a matter of topology)
+  copy_shape.vertices = base.num_vertices();
+  copy_shape.tets = base.num_tets();
+  copy_shape.triangles = hold_meshes ? 0 : extract_surface(base).num_triangles();
+  const ObjectShape* shape = hold_meshes ? nullptr : &copy_shape;
   const Mat3 identity{1, 0, 0, 0, 1, 0, 0, 0, 1};
   switch (spec.instancing) {
     case EntrySpec::Instancing::single:
-      objects.push_back(make_object(spec, base, spec.name));
       return;
     case EntrySpec::Instancing::grid: {
       int k = 0;
       for (int iz = 0; iz < spec.grid_count[2]; ++iz)
         for (int iy = 0; iy < spec.grid_count[1]; ++iy)
           for (int ix = 0; ix < spec.grid_count[0]; ++ix) {
-            const Vec3 off{ix * spec.grid_spacing[0], iy * spec.grid_spacing[1], iz * spec.grid_spacing[2]};
-            objects.push_back(make_object(spec, transformed(base, {1, 1, 1}, identity, off),
-                                          spec.name + "[" + std::to_string(k++) + "]"));
+            Placement p;
+            p.kind = Placement::Kind::offset;
+            p.base = shared;
+            p.offset = {ix * spec.grid_spacing[0], iy * spec.grid_spacing[1], iz * spec.grid_spacing[2]};
+            TetMesh m = p.place();
+            objects.push_back(make_object(spec, std::move(m), spec.name + "[" + std::to_string(k++) + "]", std::move(p), shape));
           }
       return;
     }
@@ -217,7 +243,7 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects) {
       // wide floor plate would cover the whole region above it).
       const Sphere own = bounding_sphere(base);
       BoxIndex placed(spec.region.lo, 2 * own.r);
-      for (const auto& o : objects) placed.add(bounding_box(o.mesh));
+      for (const auto& o : objects) placed.add(o.shape ? o.shape->box : bounding_box(o.mesh));
       for (int d = 0; d < 3; ++d)
         if (spec.region.hi[d] - spec.region.lo[d] < 2 * own.r) {
           std::ostringstream s;
@@ -246,13 +272,15 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects) {
           const Mat3 R = spec.random_rotate ? random_rotation(gen) : identity;
           if (placed.reaches(c, own.r)) continue;
           // rotate about the copy's own centre, then move the centre to c
-          TetMesh m = base;
-          for (std::size_t i = 0; i < m.num_vertices(); ++i) {
-            const double p[3] = {base.points[3 * i] - own.c[0], base.points[3 * i + 1] - own.c[1], base.points[3 * i + 2] - own.c[2]};
-            for (int r = 0; r < 3; ++r) m.points[3 * i + r] = R[3 * r] * p[0] + R[3 * r + 1] * p[1] + R[3 * r + 2] * p[2] + c[r];
-          }
+          Placement p;
+          p.kind = Placement::Kind::about_centre;
+          p.base = shared;
+          p.rotation = R;
+          p.centre = own.c;
+          p.offset = c;
+          TetMesh m = p.place();
           placed.add(bounding_box(m));
-          objects.push_back(make_object(spec, std::move(m), spec.name + "[" + std::to_string(k) + "]"));
+          objects.push_back(make_object(spec, std::move(m), spec.name + "[" + std::to_string(k) + "]", std::move(p), shape));
           break;
         }
       }

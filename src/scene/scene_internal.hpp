@@ -41,7 +41,9 @@ struct EntrySpec {
 /// Places the entry's copies (x' = R (S x) + t, then the instance offset) and appends
 /// them to `objects`. Random placement rejects copies whose bounding sphere overlaps an
 /// object placed before; throws InputError(detail) when the region is too small.
-void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects);
+/// With hold_meshes false, the copies of a grid or random entry keep only their shape and
+/// placement (SceneObject::mesh empty; Scene::mesh makes it).
+void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool hold_meshes = true);
 
 namespace detail {
 std::size_t edit_distance(const std::string& a, const std::string& b);

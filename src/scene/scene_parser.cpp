@@ -54,18 +54,6 @@ double Motion::active_time(double t0, double t1) const {
   return b > a ? b - a : 0.0;
 }
 
-std::size_t Scene::num_vertices() const {
-  std::size_t n = 0;
-  for (const auto& o : objects) n += o.mesh.num_vertices();
-  return n;
-}
-
-std::size_t Scene::num_tets() const {
-  std::size_t n = 0;
-  for (const auto& o : objects) n += o.mesh.num_tets();
-  return n;
-}
-
 namespace detail {
 
 std::size_t edit_distance(const std::string& a, const std::string& b) {
@@ -633,7 +621,7 @@ void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const 
     budget.check(r, n, where, copies, nv, nt);
     budget.add(copies, nv, nt);
     try {
-      instantiate(spec, scene.objects);
+      instantiate(spec, scene.objects, limits.hold_copy_meshes);
     } catch (const InputError& e) {
       if (!e.file().empty()) throw;
       r.fail(n, e.detail());
@@ -643,8 +631,7 @@ void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const 
 
 /// Highest tet frequency of one object (tet_max_frequency); NaN when any tet's is NaN, so
 /// that the caller can reject it (std::max alone would drop a NaN).
-double max_tet_frequency(const SceneObject& o, const Material& mat) {
-  const TetMesh& m = o.mesh;
+double max_tet_frequency(const TetMesh& m, const Material& mat) {
   const std::ptrdiff_t nt = static_cast<std::ptrdiff_t>(m.num_tets());
   double wmax = 0;
   bool nan = false;
@@ -675,7 +662,7 @@ void take_smaller(StableStep& stable, const Scene& scene, std::size_t i, double 
   double w = w_element, estimate = 0;
   if (bound == DtBound::mesh) {
     auto it = o.entry >= 0 ? mesh_cache.find(o.entry) : mesh_cache.end();
-    if (it == mesh_cache.end()) it = mesh_cache.insert_or_assign(o.entry, mesh_max_frequency(o.mesh, mat, w_element)).first;
+    if (it == mesh_cache.end()) it = mesh_cache.insert_or_assign(o.entry, mesh_max_frequency(scene.view_mesh(i).get(), mat, w_element)).first;
     w = std::min(w_element, it->second.omega);
     estimate = it->second.estimate;
   }
@@ -745,7 +732,7 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path, c
   for (std::size_t i = 0; i < scene.objects.size(); ++i) {
     const SceneObject& o = scene.objects[i];
     if (o.kinematic) continue;
-    const double w = max_tet_frequency(o, scene.materials[o.material]);
+    const double w = max_tet_frequency(scene.view_mesh(i).get(), scene.materials[o.material]);
     if (!(w > 0 && w < std::numeric_limits<double>::infinity())) {
       std::ostringstream s;
       s << "object '" << o.name << "' (material '" << scene.materials[o.material].name << "', " << o.source
@@ -814,7 +801,7 @@ StableStep stable_step(const Scene& scene, DtBound bound) {
   std::map<int, MeshFrequency> mesh_cache;
   for (std::size_t i = 0; i < scene.objects.size(); ++i)
     if (!scene.objects[i].kinematic)
-      take_smaller(stable, scene, i, max_tet_frequency(scene.objects[i], scene.materials[scene.objects[i].material]),
+      take_smaller(stable, scene, i, max_tet_frequency(scene.view_mesh(i).get(), scene.materials[scene.objects[i].material]),
                    bound, mesh_cache);
   return stable;
 }

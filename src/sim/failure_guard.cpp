@@ -25,23 +25,26 @@ GuardScales guard_scales(const Scene& scene) {
   bool motion = false;
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   const double gn = norm3(scene.sim.gravity);
-  for (const SceneObject& o : scene.objects) {
+  for (std::size_t k = 0; k < scene.objects.size(); ++k) {
+    const SceneObject& o = scene.objects[k];
+    const Scene::MeshView view = scene.view_mesh(k);  // not kept where this rank dropped it
+    const TetMesh& mesh = view.get();
     const Material& m = scene.materials[static_cast<std::size_t>(o.material)];
     v = std::max({v, norm3(o.velocity), norm3(o.motion.velocity)});
     motion = motion || o.motion.moves();
-    for (std::size_t i = 0; i < o.mesh.num_vertices(); ++i) {
+    for (std::size_t i = 0; i < mesh.num_vertices(); ++i) {
       // Height along gravity: how far anything can fall.
       double h = 0;
-      for (int d = 0; d < 3; ++d) h += o.mesh.points[3 * i + static_cast<std::size_t>(d)] * (gn > 0 ? scene.sim.gravity[static_cast<std::size_t>(d)] / gn : 0);
+      for (int d = 0; d < 3; ++d) h += mesh.points[3 * i + static_cast<std::size_t>(d)] * (gn > 0 ? scene.sim.gravity[static_cast<std::size_t>(d)] / gn : 0);
       lo = std::min(lo, h);
       hi = std::max(hi, h);
     }
     if (o.kinematic) continue;
     c = std::max(c, m.wave_speed());
-    const double volume = tet_volume_sum(o.mesh);
+    const double volume = tet_volume_sum(mesh);
     mass += m.density * volume;
     motion_work += m.young * volume;
-    g.movable_tets += static_cast<std::int64_t>(o.mesh.num_tets());
+    g.movable_tets += static_cast<std::int64_t>(mesh.num_tets());
   }
   const double height = hi > lo ? hi - lo : 0;
   g.max_speed = scene.sim.max_speed > 0 ? scene.sim.max_speed

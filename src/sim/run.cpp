@@ -259,8 +259,10 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     const CheckpointInfo& info = restart->info;
     bool same = info.ranks == nranks && info.partition.size() == scene.objects.size();
     for (int r : info.partition) same = same && r >= 0 && r < nranks;
-    partition = same ? info.partition : partition_at(scene, extract_surfaces(scene), info.boxes, nranks);
+    partition = same ? info.partition : partition_at(scene, info.boxes, nranks);
   }
+  // Before the Simulator drops the meshes this rank does not need: checkpoints carry it.
+  const std::uint64_t fingerprint = scene_fingerprint(scene);
   Simulator simulator(comm, scene, partition);
   if (restart) {
     StepState state;
@@ -341,7 +343,7 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     info.steps = nsteps;
     info.output_every = every;
     info.frames = writer->frames_written();
-    info.fingerprint = scene_fingerprint(scene);
+    info.fingerprint = fingerprint;
     info.energy0 = guard.energy0();
     info.energy_scale = guard.energy_scale();
     info.scene_path = fs::absolute(scene.path).lexically_normal().string();

@@ -2,6 +2,10 @@
 
 #include <petscsys.h>
 
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
+
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -23,18 +27,18 @@
 namespace softcontact {
 
 Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partition)
-    : comm_(comm), rank_(comm_rank(comm)), nranks_(comm_size(comm)), scene_(scene), surfaces_(extract_surfaces(scene)) {
-  partition_ = partition.empty() ? initial_partition(scene, surfaces_, nranks_) : std::move(partition);
+    : comm_(comm), rank_(comm_rank(comm)), nranks_(comm_size(comm)), scene_(scene) {
+  partition_ = partition.empty() ? initial_partition(scene, nranks_) : std::move(partition);
   if (partition_.size() != scene.objects.size())
     throw RuntimeFailure("Simulator: the partition names " + std::to_string(partition_.size()) + " objects, the scene has " +
                          std::to_string(scene.objects.size()));
   for (int r : partition_)
     if (r < 0 || r >= nranks_) throw RuntimeFailure("Simulator: the partition names rank " + std::to_string(r));
-  double mean_edge = 0;
-  scene_edge_lengths(scene, mean_edge, median_edge_);
-  collision_settings_ = collision_settings_for(scene);
-  ghosts_ = std::make_unique<GhostSet>(comm, scene_, surfaces_, collision_settings_.cell_size);
-  world_ = build_world(scene, surfaces_, partition_, rank_);
+  collision_settings_ = collision_settings_for(scene, scene_mean_edge(scene));
+  ghosts_ = std::make_unique<GhostSet>(comm, scene_, collision_settings_.cell_size);
+  world_ = build_world(scene, partition_, rank_);
+  median_edge_ = owned_median_edge();
+  drop_unneeded_meshes();  // the ghosts' meshes are made again as the ghost set takes them
   build_components();
   rebuild_ghosts(true);
   core_->initial_overlaps(initial_overlaps_, initial_overlap_depth_);
@@ -61,8 +65,35 @@ void Simulator::rebuild_ghosts(bool force) {
 
 // The World's ghost part changed: a detector for it, the force buffer sized to it.
 void Simulator::follow_ghosts() {
+  drop_unneeded_meshes();
   core_->make_detector();
   core_->resize();
+}
+
+// The median of the scene's tet edges, from each rank's own objects (kth_smallest): no
+// rank holds the lengths of the whole scene.
+double Simulator::owned_median_edge() const {
+  std::vector<double> len;
+  for (int k : world_.owned_objects) append_edge_lengths(scene_.mesh(static_cast<std::size_t>(k)), len);
+  auto total = static_cast<std::int64_t>(len.size());
+  MPI_Allreduce(MPI_IN_PLACE, &total, 1, MPI_INT64_T, MPI_SUM, comm_);
+  return total > 0 ? kth_smallest(comm_, len, total / 2) : 0;
+}
+
+// A rank keeps the meshes of its own objects and its ghosts: a migration or the next
+// ghost set makes the others again from their entries' meshes when it needs them.
+void Simulator::drop_unneeded_meshes() {
+  if (nranks_ == 1) return;
+  std::vector<char> keep(scene_.objects.size(), 0);
+  for (int k : world_.owned_objects) keep[static_cast<std::size_t>(k)] = 1;
+  for (int k : world_.ghost_objects) keep[static_cast<std::size_t>(k)] = 1;
+  const std::size_t bytes = scene_.drop_meshes(keep);
+  dropped_mesh_bytes_ += static_cast<std::int64_t>(bytes);
+#ifdef __GLIBC__
+  // Meshes are many small blocks inside the heap: hand their pages back to the system,
+  // or the resident size keeps them.
+  if (bytes > 0) malloc_trim(0);
+#endif
 }
 
 std::int64_t Simulator::halo_bytes() const { return ghosts_->bytes_received(); }
@@ -201,14 +232,14 @@ void Simulator::maybe_rebalance() {
   const RankWork work{work_seconds_, cross_collisions_, static_cast<std::int64_t>(core_->collisions().size())};
   work_seconds_ = 0;
   std::vector<int> next;
-  if (!rebalance(comm_, scene_, surfaces_, world_, partition_, rebalance_, step_, work, next)) return;
+  if (!rebalance(comm_, scene_, world_, partition_, rebalance_, step_, work, next)) return;
   ++repartitions_;
   if (next != partition_) migrate(next);
 }
 
 void Simulator::migrate(const std::vector<int>& next) {
   StepState then;
-  World next_world = migrate_objects(comm_, scene_, surfaces_, world_, snapshot(), partition_, next, then);
+  World next_world = migrate_objects(comm_, scene_, world_, snapshot(), partition_, next, then);
   partition_ = next;
   ghosts_->drop();
   world_ = std::move(next_world);
@@ -300,7 +331,7 @@ VerifyFrame Simulator::verify(bool full) {
   VerifyFrame f;
   if (rank_ == 0) {
     if (!verify_mesh_) {
-      verify_mesh_ = std::make_unique<VerifyMesh>(verify_mesh_of(scene_, surfaces_));
+      verify_mesh_ = std::make_unique<VerifyMesh>(verify_mesh_of(scene_));
       free_fall_speed_ = free_fall_speed(scene_);
     }
     const std::size_t n = verify_mesh_->num_vertices();

@@ -13,18 +13,46 @@ namespace softcontact {
 
 // Mean and median edge length over every tet edge of the scene (an edge counts once per
 // tet), from the scene alone: the same on every rank.
+void append_edge_lengths(const TetMesh& m, std::vector<double>& len) {
+  for (std::size_t t = 0; t < m.num_tets(); ++t)
+    for (const auto& e : kTetEdges) {
+      const double* a = &m.points[3 * m.tets[4 * t + e[0]]];
+      const double* b = &m.points[3 * m.tets[4 * t + e[1]]];
+      len.push_back(std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]));
+    }
+}
+
+namespace {
+// The lengths object by object; the sum runs over all of them in scene order, so the
+// mean is bitwise the same however the lengths are held.
+template <class F>
+double sum_edge_lengths(const Scene& scene, std::size_t& count, F&& each_object) {
+  double sum = 0;
+  count = 0;
+  std::vector<double> len;
+  for (std::size_t k = 0; k < scene.objects.size(); ++k) {
+    const Scene::MeshView view = scene.view_mesh(k);
+    len.clear();
+    append_edge_lengths(view.get(), len);
+    for (double l : len) sum += l;
+    count += len.size();
+    each_object(len);
+  }
+  return sum;
+}
+}  // namespace
+
+double scene_mean_edge(const Scene& scene) {
+  std::size_t n = 0;
+  const double sum = sum_edge_lengths(scene, n, [](const std::vector<double>&) {});
+  return n > 0 ? sum / static_cast<double>(n) : 0;
+}
+
 void scene_edge_lengths(const Scene& scene, double& mean, double& median) {
   std::vector<double> len;
   len.reserve(6 * scene.num_tets());
-  double sum = 0;
-  for (const SceneObject& o : scene.objects)
-    for (std::size_t t = 0; t < o.mesh.num_tets(); ++t)
-      for (const auto& e : kTetEdges) {
-        const double* a = &o.mesh.points[3 * o.mesh.tets[4 * t + e[0]]];
-        const double* b = &o.mesh.points[3 * o.mesh.tets[4 * t + e[1]]];
-        len.push_back(std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]));
-        sum += len.back();
-      }
+  std::size_t n = 0;
+  const double sum = sum_edge_lengths(scene, n, [&](const std::vector<double>& l) { len.insert(len.end(), l.begin(), l.end()); });
   mean = median = 0;
   if (len.empty()) return;
   mean = sum / static_cast<double>(len.size());
@@ -34,8 +62,10 @@ void scene_edge_lengths(const Scene& scene, double& mean, double& median) {
 
 // One cell size for every rank: detection's tolerances scale with it.
 CollisionSettings collision_settings_for(const Scene& scene) {
-  double mean = 0, median = 0;
-  scene_edge_lengths(scene, mean, median);
+  return collision_settings_for(scene, scene_mean_edge(scene));
+}
+
+CollisionSettings collision_settings_for(const Scene& scene, double mean) {
   CollisionSettings s;
   s.self_collisions = scene.sim.self_collisions;
   s.edge_contacts = scene.sim.edge_contacts;
@@ -57,7 +87,7 @@ void SerialStepper::make_detector() {
   std::vector<double> rest(3 * world_.n_local());
   for (std::size_t i = 0; i < world_.n_local(); ++i) {
     const int k = world_.vertex_object[i];
-    const TetMesh& m = scene_.objects[static_cast<std::size_t>(k)].mesh;
+    const TetMesh& m = scene_.mesh(static_cast<std::size_t>(k));
     const auto j = static_cast<std::size_t>(world_.vertex_gid[i] - world_.layout[static_cast<std::size_t>(k)].vertex_begin);
     for (std::size_t d = 0; d < 3; ++d) rest[3 * i + d] = m.points[3 * j + d];
   }

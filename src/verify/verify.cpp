@@ -391,23 +391,30 @@ void prepare_verify_mesh(VerifyMesh& m, const double* rest, const std::string& s
 std::vector<double> initial_positions(const Scene& scene) {
   std::vector<double> x;
   x.reserve(3 * scene.num_vertices());
-  for (const SceneObject& o : scene.objects) x.insert(x.end(), o.mesh.points.begin(), o.mesh.points.end());
+  for (std::size_t k = 0; k < scene.objects.size(); ++k) {
+    const Scene::MeshView m = scene.view_mesh(k);
+    x.insert(x.end(), m.get().points.begin(), m.get().points.end());
+  }
   return x;
 }
 
-VerifyMesh verify_mesh_of(const Scene& scene, const std::vector<Surface>& surfaces) {
+VerifyMesh verify_mesh_of(const Scene& scene) {
   VerifyMesh m;
   gid_t base = 0;
   for (std::size_t k = 0; k < scene.objects.size(); ++k) {
     const SceneObject& o = scene.objects[k];
     const auto obj = static_cast<std::int32_t>(k);
-    m.vertex_object.insert(m.vertex_object.end(), o.mesh.num_vertices(), obj);
-    for (index_t v : o.mesh.tets) m.tets.push_back(base + v);
-    m.tet_object.insert(m.tet_object.end(), o.mesh.num_tets(), obj);
-    for (index_t v : surfaces[k].triangles) m.triangles.push_back(base + v);
-    m.triangle_object.insert(m.triangle_object.end(), surfaces[k].num_triangles(), obj);
+    // Whole-scene: a mesh this rank dropped is made for the pass and not kept.
+    const Scene::MeshView view = scene.view_mesh(k);
+    const TetMesh& mesh = view.get();
+    const Surface surface = o.surface ? *o.surface : extract_surface(mesh);
+    m.vertex_object.insert(m.vertex_object.end(), mesh.num_vertices(), obj);
+    for (index_t v : mesh.tets) m.tets.push_back(base + v);
+    m.tet_object.insert(m.tet_object.end(), mesh.num_tets(), obj);
+    for (index_t v : surface.triangles) m.triangles.push_back(base + v);
+    m.triangle_object.insert(m.triangle_object.end(), surface.num_triangles(), obj);
     m.object_fixed.push_back(o.kinematic ? 1 : 0);
-    base += static_cast<gid_t>(o.mesh.num_vertices());
+    base += static_cast<gid_t>(mesh.num_vertices());
   }
   prepare_verify_mesh(m, initial_positions(scene).data(), scene.path);
   return m;

@@ -17,7 +17,7 @@ using namespace softcontact;
 
 TEST(SerialStepper, StepsAsTheSimulatorDoesOnOneRank) {
   const Scene scene = load_scene(std::string(SOFTCONTACT_TEST_DATA) + "/scenes/pile.yaml");
-  World w = build_world(scene, extract_surfaces(scene), std::vector<int>(scene.objects.size(), 0), 0);
+  World w = build_world(scene, std::vector<int>(scene.objects.size(), 0), 0);
   SerialStepper core(scene, w, collision_settings_for(scene));
   core.make_detector();
   core.resize();

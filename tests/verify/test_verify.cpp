@@ -120,7 +120,7 @@ struct SceneBodies {
   std::vector<double> x;
   explicit SceneBodies(const std::string& objects)
       : scene(load_scene_from_string(std::string(kSceneHead) + objects, "test.yaml")),
-        mesh(verify_mesh_of(scene, extract_surfaces(scene))),
+        mesh(verify_mesh_of(scene)),
         x(initial_positions(scene)) {}
 };
 
