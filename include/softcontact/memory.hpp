@@ -21,8 +21,9 @@ struct MemoryEstimate {
 };
 
 /// The model, fitted to measured peaks (docs/reliability.md, "Memory"): every rank holds
-/// the whole scene's meshes, and the simulation state of the objects it owns. Objects are
-/// never split, so a rank's share is at least the largest object.
+/// the meshes of the single-copy entries and a record of every object, and the simulation
+/// state of the objects it owns (copies of multi-copy entries only where owned or
+/// ghosted). Objects are never split, so a rank's share is at least the largest object.
 MemoryEstimate estimate_memory(const Scene& scene, int nranks);
 
 /// What this rank may use [bytes]: its address-space limit (RLIMIT_AS, 0 when none) and

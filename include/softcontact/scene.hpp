@@ -4,6 +4,7 @@
 // load_scene() from a YAML file whose format docs/scene-format.md documents key by key.
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -223,6 +224,14 @@ struct SceneLimits {
   /// keeps only its shape and placement, and Scene::mesh makes its mesh when a rank needs
   /// it (`run` and `bench` load so: docs/architecture.md, "Who holds which mesh").
   bool hold_copy_meshes = true;
+  /// How ranks share the parser's costliest per-object work, the highest tet frequency of
+  /// every movable object for the stable step (a 12 x 12 eigenproblem per tet): this rank
+  /// computes the objects k with k % parts == part, zeros elsewhere, and `sum` adds the
+  /// ranks' vectors element by element (an MPI_Allreduce), so that every rank has every
+  /// object's value, computed exactly as on one rank. parts = 1: all on this rank.
+  int part = 0;
+  int parts = 1;
+  std::function<void(std::vector<double>&)> sum;
 };
 
 /// Reads, validates and instantiates a scene. Mesh paths are relative to the scene file.

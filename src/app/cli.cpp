@@ -38,9 +38,15 @@ namespace {
 
 // `run` and `bench` hold only the meshes of the objects each rank owns or ghosts: copies
 // of multi-copy entries are made when needed (docs/architecture.md, "Who holds which mesh").
-SceneLimits copies_made_on_demand() {
+// The ranks share the stable step's per-object frequencies (SceneLimits::sum).
+SceneLimits copies_made_on_demand(MPI_Comm comm) {
   SceneLimits l;
   l.hold_copy_meshes = false;
+  l.part = comm_rank(comm);
+  l.parts = comm_size(comm);
+  l.sum = [comm](std::vector<double>& v) {
+    MPI_Allreduce(MPI_IN_PLACE, v.data(), static_cast<int>(v.size()), MPI_DOUBLE, MPI_SUM, comm);
+  };
   return l;
 }
 
@@ -378,7 +384,7 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
       usage_error("give either a scene or --restart (the checkpoint carries its scene), not both", "run");
     if (a.values.at("--restart").empty()) usage_error("--restart expects a checkpoint file or directory", "run");
   }
-  Scene s = restarting ? load_restart(comm, a.values.at("--restart"), restart) : load_scene(scene_argument(a, "run"), copies_made_on_demand());
+  Scene s = restarting ? load_restart(comm, a.values.at("--restart"), restart) : load_scene(scene_argument(a, "run"), copies_made_on_demand(comm));
   apply_overrides(s, opt);
   const int rank = comm_rank(comm), size = comm_size(comm);
   const MemoryEstimate mem = estimate_memory(s, size);
@@ -432,7 +438,7 @@ int cmd_bench(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err
   const std::string per_step = a.values.count("--per-step") ? a.values.at("--per-step") : "";
   if (a.values.count("--csv") && csv.empty()) usage_error("--csv expects a file name", "bench");
   if (a.values.count("--per-step") && per_step.empty()) usage_error("--per-step expects a file name", "bench");
-  const Scene s = load_scene(scene_argument(a, "bench"), copies_made_on_demand());
+  const Scene s = load_scene(scene_argument(a, "bench"), copies_made_on_demand(comm));
   const int rank = comm_rank(comm);
   if (rank == 0) print_warnings(s, err);
   BenchFiles files(comm, csv, per_step);

@@ -20,7 +20,8 @@ namespace {
 // 12 runs: one corotational box or slab of 6 thousand to 1.3 million tets on a plate on 1
 // rank, and two equal boxes on 1 and 2 ranks. Largest error 3.3 %.
 constexpr double kFixedBytes = 43.1 * 1024 * 1024;  // MPI, PETSc, HDF5, the program
-constexpr double kSceneBytesPerTet = 274;           // the scene's meshes, on every rank
+constexpr double kSceneBytesPerTet = 274;           // meshes every rank holds (single-copy entries)
+constexpr double kObjectBytes = 1500;               // what every rank knows of each object (shape, placement, layout)
 constexpr double kOwnedBytesPerTet = 120;           // state of the owned objects: forces,
 constexpr double kOwnedBytesPerVertex = 1514;       // collision, contact, output
 
@@ -46,10 +47,12 @@ double meminfo_field(const char* name) { return proc_field("/proc/meminfo", name
 
 MemoryEstimate estimate_memory(const Scene& scene, int nranks) {
   MemoryEstimate e;
-  std::int64_t big_t = 0, big_v = 0;
+  std::int64_t big_t = 0, big_v = 0, everywhere_t = 0;
   for (std::size_t k = 0; k < scene.objects.size(); ++k) {
     const ObjectShape& s = scene.shape(k);
     const auto t = static_cast<std::int64_t>(s.tets), v = static_cast<std::int64_t>(s.vertices);
+    // Copies of multi-copy entries are held only where owned or ghosted (Scene::drop_meshes).
+    if (!scene.objects[k].placement.can_remake()) everywhere_t += t;
     e.tets += t;
     e.vertices += v;
     big_t = std::max(big_t, t);
@@ -59,7 +62,8 @@ MemoryEstimate estimate_memory(const Scene& scene, int nranks) {
   e.rank_tets = std::max(big_t, (e.tets + n - 1) / n);
   e.rank_vertices = std::max(big_v, (e.vertices + n - 1) / n);
   e.fixed = kFixedBytes;
-  e.per_rank = kFixedBytes + kSceneBytesPerTet * static_cast<double>(e.tets) +
+  e.per_rank = kFixedBytes + kSceneBytesPerTet * static_cast<double>(everywhere_t) +
+               kObjectBytes * static_cast<double>(scene.objects.size()) +
                kOwnedBytesPerTet * static_cast<double>(e.rank_tets) +
                kOwnedBytesPerVertex * static_cast<double>(e.rank_vertices);
   return e;

@@ -729,10 +729,16 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path, c
   // inf or NaN, and then no time step is stable.
   StableStep stable;
   std::map<int, MeshFrequency> mesh_cache;
+  const bool shared = limits.parts > 1 && limits.sum;
+  std::vector<double> frequency(scene.objects.size(), 0.0);
+  for (std::size_t i = 0; i < scene.objects.size(); ++i)
+    if (!scene.objects[i].kinematic && (!shared || static_cast<int>(i % static_cast<std::size_t>(limits.parts)) == limits.part))
+      frequency[i] = max_tet_frequency(scene.view_mesh(i).get(), scene.materials[scene.objects[i].material]);
+  if (shared) limits.sum(frequency);  // 0 + w is w, NaN stays NaN: each value as computed alone
   for (std::size_t i = 0; i < scene.objects.size(); ++i) {
     const SceneObject& o = scene.objects[i];
     if (o.kinematic) continue;
-    const double w = max_tet_frequency(scene.view_mesh(i).get(), scene.materials[o.material]);
+    const double w = frequency[i];
     if (!(w > 0 && w < std::numeric_limits<double>::infinity())) {
       std::ostringstream s;
       s << "object '" << o.name << "' (material '" << scene.materials[o.material].name << "', " << o.source
