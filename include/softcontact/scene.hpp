@@ -82,7 +82,7 @@ struct ObjectShape {
   std::size_t vertices = 0;
   std::size_t tets = 0;
   std::size_t triangles = 0;   ///< of its boundary (extract_surface)
-  Box box = Box::none();       ///< at its initial positions; a NaN coordinate replaces the bound (add_point in ghosts.hpp)
+  Box box = Box::none();       ///< at its initial positions; a NaN coordinate replaces the bound (add_point in box.hpp)
 };
 
 /// How an object's mesh is made from its entry's mesh (already scaled, rotated and moved by

@@ -128,9 +128,6 @@ public:
   std::int64_t repartitions() const { return repartitions_; }
   /// Ghost-set rebuilds so far (the halo grows and shrinks as objects move).
   std::int64_t ghost_rebuilds() const;
-  /// Bytes of scene meshes and surfaces this rank has dropped so far (objects it neither
-  /// owns nor ghosts; docs/architecture.md, "Who holds which mesh").
-  std::int64_t dropped_mesh_bytes() const { return dropped_mesh_bytes_; }
   /// Bytes this rank has received through the halo since construction.
   std::int64_t halo_bytes() const;
   /// Collisions of this rank whose triangle lies on an object of another rank, last step.
@@ -168,7 +165,6 @@ private:
   std::int64_t timed_steps_ = 0;
   std::int64_t step_ = 0;
   double median_edge_ = 0;
-  std::int64_t dropped_mesh_bytes_ = 0;
   std::int64_t initial_overlaps_ = 0;
   double initial_overlap_depth_ = 0;
   std::unique_ptr<VerifyMesh> verify_mesh_;  // rank 0, built by the first verify()

@@ -9,7 +9,8 @@ namespace softcontact {
 
 namespace {
 std::uint64_t bits_of(double x) {
-  if (!(x >= 0)) return std::numeric_limits<std::uint64_t>::max();  // NaN (and -0.0, never a length) last
+  if (x == 0) return 0;                                               // -0.0 is 0.0
+  if (!(x > 0)) return std::numeric_limits<std::uint64_t>::max();   // NaN last
   std::uint64_t b = 0;
   std::memcpy(&b, &x, sizeof b);
   return b;

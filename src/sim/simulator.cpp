@@ -88,11 +88,12 @@ void Simulator::drop_unneeded_meshes() {
   for (int k : world_.owned_objects) keep[static_cast<std::size_t>(k)] = 1;
   for (int k : world_.ghost_objects) keep[static_cast<std::size_t>(k)] = 1;
   const std::size_t bytes = scene_.drop_meshes(keep);
-  dropped_mesh_bytes_ += static_cast<std::int64_t>(bytes);
 #ifdef __GLIBC__
   // Meshes are many small blocks inside the heap: hand their pages back to the system,
   // or the resident size keeps them.
   if (bytes > 0) malloc_trim(0);
+#else
+  (void)bytes;
 #endif
 }
 

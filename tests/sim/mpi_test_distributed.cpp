@@ -182,14 +182,14 @@ TEST(Distributed, EachRankHoldsOnlyTheMeshesItNeeds) {
 }
 
 // kth_smallest against std::nth_element on all ranks' values gathered: equal, for values
-// with duplicates, zeros and a spread of magnitudes, and every rank holding a different count.
+// with duplicates, zeros of both signs and a spread of magnitudes, and every rank holding a different count.
 TEST(Distributed, KthSmallestIsNthElementOfAllRanksValues) {
   const int rank = comm_rank(MPI_COMM_WORLD), n = comm_size(MPI_COMM_WORLD);
   std::mt19937_64 gen(static_cast<std::uint64_t>(17 + rank));
   std::vector<double> mine(static_cast<std::size_t>(50 + 31 * rank));
   for (double& v : mine) {
     const auto r = gen();
-    v = r % 7 == 0 ? 0.0 : r % 5 == 0 ? 0.25 : std::ldexp(static_cast<double>(r >> 11), -40 - static_cast<int>(r % 20));
+    v = r % 7 == 0 ? (r % 2 ? -0.0 : 0.0) : r % 5 == 0 ? 0.25 : std::ldexp(static_cast<double>(r >> 11), -40 - static_cast<int>(r % 20));
   }
   int count = static_cast<int>(mine.size());
   std::vector<int> counts(static_cast<std::size_t>(n)), disp(static_cast<std::size_t>(n));
