@@ -14,6 +14,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 #include "softcontact/mesh.hpp"
@@ -103,6 +104,14 @@ struct RecordKey {
   double depth[3] = {0, 0, 0};
 };
 
+/// Per-object self-contact gaps (self_culling.hpp), kept across detectors by global
+/// object index. A gap depends only on the object's rest mesh, so a detector rebuilt for a
+/// new ghost set or after a migration takes the known ones (bitwise what it would compute:
+/// a minimum over the same distances) and computes only the others.
+struct SelfGapCache {
+  std::unordered_map<std::int32_t, double> gap;
+};
+
 /// Spatial hashing (Teschner et al. 2003) and consistent penetration depth (Heidelberger
 /// et al. 2004). Construction precomputes what does not change: edges, vertex adjacency,
 /// surface vertices, object thickness. detect() reuses its buffers between steps.
@@ -111,7 +120,10 @@ public:
   /// `rest_x` (n_local,3): the positions the surface hierarchies are built from (the
   /// scene's initial positions, so that a detector rebuilt during a run, after a ghost
   /// change or a migration, searches exactly like the first); null: world.x.
-  CollisionDetector(const World& world, const CollisionSettings& settings, const double* rest_x = nullptr);
+  /// `gaps`: self-contact gaps known from earlier detectors built from the same rest
+  /// positions; the new ones are added to it (null: computed here, not kept).
+  CollisionDetector(const World& world, const CollisionSettings& settings, const double* rest_x = nullptr,
+                    SelfGapCache* gaps = nullptr);
   ~CollisionDetector();
   CollisionDetector(CollisionDetector&&) noexcept;
   CollisionDetector& operator=(CollisionDetector&&) noexcept;

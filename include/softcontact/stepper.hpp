@@ -98,6 +98,7 @@ private:
   CollisionSettings settings_;
   std::unique_ptr<UnconstrainedMotion> motion_;
   std::unique_ptr<CollisionDetector> detector_;
+  SelfGapCache gaps_;  // self-contact gaps of every object a detector has held (rest shapes only)
   std::unique_ptr<ContactResponse> contact_;
   std::vector<double> f_;
   std::vector<Collision> collisions_;

@@ -223,7 +223,7 @@ struct CollisionDetector::Impl {
   std::vector<std::vector<std::uint32_t>> kept_k_buf;
   bool any_bad = false;                     // a non-finite position this step
 
-  Impl(const World& w, const CollisionSettings& s, const double* rest_x);
+  Impl(const World& w, const CollisionSettings& s, const double* rest_x, SelfGapCache* gaps);
   void detect(const World& w, const double* x_start, std::vector<Collision>& out, CollisionStats& st);
 
 private:
@@ -239,10 +239,10 @@ private:
   void depth(const World& w, const double* x_start, std::vector<Collision>& out, CollisionStats& st);
 };
 
-CollisionDetector::Impl::Impl(const World& w, const CollisionSettings& s, const double* rest_x)
+CollisionDetector::Impl::Impl(const World& w, const CollisionSettings& s, const double* rest_x, SelfGapCache* gaps)
     : settings(s), topo(build_collision_topology(w)) {
   if (settings.edge_contacts) surface_edges = build_surface_edges(w, topo);
-  if (settings.self_collisions) culling.build(w, topo, rest_x ? rest_x : w.x.data());
+  if (settings.self_collisions) culling.build(w, topo, rest_x ? rest_x : w.x.data(), gaps);
   double h = settings.cell_size > 0 ? settings.cell_size : topo.mean_edge_length;
   if (!(h > 0) || !std::isfinite(h)) h = 1;  // no edges at all: any size works
   grid.set_cell_size(h);
@@ -727,8 +727,9 @@ void CollisionDetector::Impl::detect(const World& w, const double* x_start, std:
   st.depth_seconds = seconds_since(t1);
 }
 
-CollisionDetector::CollisionDetector(const World& world, const CollisionSettings& settings, const double* rest_x)
-    : impl_(std::make_unique<Impl>(world, settings, rest_x)) {}
+CollisionDetector::CollisionDetector(const World& world, const CollisionSettings& settings, const double* rest_x,
+                                     SelfGapCache* gaps)
+    : impl_(std::make_unique<Impl>(world, settings, rest_x, gaps)) {}
 CollisionDetector::~CollisionDetector() = default;
 CollisionDetector::CollisionDetector(CollisionDetector&&) noexcept = default;
 CollisionDetector& CollisionDetector::operator=(CollisionDetector&&) noexcept = default;

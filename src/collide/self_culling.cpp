@@ -27,13 +27,22 @@ double point_tet_distance(const V3& p, const V3& a, const V3& b, const V3& c, co
 
 }  // namespace
 
-void SelfCulling::build(const World& w, const CollisionTopology& topo, const double* x_ref) {
+void SelfCulling::build(const World& w, const CollisionTopology& topo, const double* x_ref, SelfGapCache* known) {
   ref_.assign(x_ref, x_ref + 3 * w.n_local());
   const std::size_t no = topo.objects.size();
   gap_.assign(no, 0);
+  std::vector<std::uint8_t> have(no, 0);
+  if (known)
+    for (std::size_t k = 0; k < no; ++k) {
+      const auto it = known->gap.find(topo.objects[k].object);
+      if (it != known->gap.end()) {
+        gap_[k] = it->second;
+        have[k] = 1;
+      }
+    }
   parallel_for_dynamic(no, [&](std::size_t k, int) {
     const ObjectInfo& o = topo.objects[k];
-    if (o.tets.empty() || o.surface_vertices.empty()) return;
+    if (have[k] || o.tets.empty() || o.surface_vertices.empty()) return;
     const double* x = ref_.data();
     Box box;
     box.reset();
@@ -81,6 +90,8 @@ void SelfCulling::build(const World& w, const CollisionTopology& topo, const dou
     }
     gap_[k] = gap;
   });
+  if (known)
+    for (std::size_t k = 0; k < no; ++k) known->gap.emplace(topo.objects[k].object, gap_[k]);
 }
 
 void SelfCulling::update(const double* x, const CollisionTopology& topo, const std::uint8_t* bad_vertex,

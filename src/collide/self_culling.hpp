@@ -22,13 +22,15 @@
 #include <vector>
 
 #include "collision_topology.hpp"
+#include "softcontact/collision.hpp"
 
 namespace softcontact::collide {
 
 class SelfCulling {
 public:
-  /// Gaps from the reference positions `x_ref` (n_local,3); keeps a copy of them.
-  void build(const World& w, const CollisionTopology& topo, const double* x_ref);
+  /// Gaps from the reference positions `x_ref` (n_local,3); keeps a copy of them. The
+  /// objects found in `known` take its gap; the others' are computed and added to it.
+  void build(const World& w, const CollisionTopology& topo, const double* x_ref, SelfGapCache* known = nullptr);
   /// active[k] = 1 when object slot k can be in self-contact at positions x.
   void update(const double* x, const CollisionTopology& topo, const std::uint8_t* bad_vertex,
               std::vector<std::uint8_t>& active, std::vector<double>& delta) const;

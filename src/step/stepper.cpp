@@ -91,7 +91,7 @@ void SerialStepper::make_detector() {
     const auto j = static_cast<std::size_t>(world_.vertex_gid[i] - world_.layout[static_cast<std::size_t>(k)].vertex_begin);
     for (std::size_t d = 0; d < 3; ++d) rest[3 * i + d] = m.points[3 * j + d];
   }
-  detector_ = std::make_unique<CollisionDetector>(world_, settings_, rest.data());
+  detector_ = std::make_unique<CollisionDetector>(world_, settings_, rest.data(), &gaps_);
 }
 
 void SerialStepper::resize() { f_.resize(3 * world_.n_local(), 0.0); }

@@ -11,6 +11,7 @@
 #include <set>
 
 #include "collide_test_util.hpp"
+#include "collide/self_culling.hpp"
 #include "../random_objects.hpp"
 
 using namespace softcontact;
@@ -313,6 +314,53 @@ TEST(CollisionDetector, SelfCullingChangesNoRecord) {
       EXPECT_EQ(a[k].triangle_gid, b[k].triangle_gid);
       for (int d = 0; d < 3; ++d) EXPECT_EQ(a[k].depth[d], b[k].depth[d]);
     }
+  }
+}
+
+// The self-contact gaps kept across detectors (SelfGapCache): a gap taken from the cache
+// is bitwise the one computed afresh (it depends only on the rest mesh), a cached value is
+// what the detector uses (a poisoned entry shows it is read, not recomputed), and a
+// detector built with a cache filled by an earlier one finds the same records.
+TEST(CollisionDetector, SelfGapCacheGivesTheComputedGaps) {
+  World w = random_scene(21, 8, 0.0);
+  const std::vector<double> rest = w.x;
+  const collide::CollisionTopology topo = collide::build_collision_topology(w);
+  collide::SelfCulling fresh, filled, cached, poisoned;
+  fresh.build(w, topo, rest.data());
+  SelfGapCache cache;
+  filled.build(w, topo, rest.data(), &cache);
+  ASSERT_EQ(cache.gap.size(), topo.objects.size());
+  cached.build(w, topo, rest.data(), &cache);
+  std::size_t positive = 0;
+  for (std::size_t k = 0; k < topo.objects.size(); ++k) {
+    EXPECT_EQ(filled.gap(k), fresh.gap(k)) << "slot " << k;
+    EXPECT_EQ(cached.gap(k), fresh.gap(k)) << "slot " << k;
+    positive += fresh.gap(k) > 0;
+  }
+  EXPECT_EQ(positive, topo.objects.size());  // every object has a gap to keep
+  SelfGapCache wrong = cache;
+  wrong.gap[topo.objects[0].object] = 12345.0;
+  poisoned.build(w, topo, rest.data(), &wrong);
+  EXPECT_EQ(poisoned.gap(0), 12345.0);
+  EXPECT_EQ(poisoned.gap(1), fresh.gap(1));
+
+  // Jittered hard (self-contact records exist): a detector with the filled cache finds
+  // the records of one without it, bitwise.
+  std::mt19937_64 g(21);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (double& x : w.x) x += 0.2 * u(g);
+  CollisionSettings self;
+  self.self_collisions = true;
+  std::vector<Collision> a, b;
+  CollisionStats sa, sb;
+  CollisionDetector(w, self, rest.data()).detect(w, nullptr, a, sa);
+  CollisionDetector(w, self, rest.data(), &cache).detect(w, nullptr, b, sb);
+  EXPECT_GT(sa.self_collisions, 0);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].point_gid, b[k].point_gid);
+    EXPECT_EQ(a[k].triangle_gid, b[k].triangle_gid);
+    for (int d = 0; d < 3; ++d) EXPECT_EQ(a[k].depth[d], b[k].depth[d]);
   }
 }
 
