@@ -243,7 +243,20 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool 
       // wide floor plate would cover the whole region above it).
       const Sphere own = bounding_sphere(base);
       BoxIndex placed(spec.region.lo, 2 * own.r);
-      for (const auto& o : objects) placed.add(o.shape ? o.shape->box : bounding_box(o.mesh));
+      // A copy's ball lies in the region (its centre keeps r from every side), so a box
+      // farther than r from the region cannot be reached by one (it is more than 2r from
+      // every centre, far beyond rounding): only the others are indexed. The answers are
+      // those of indexing every earlier object, and a scene of many regions (the weak-
+      // scaling containers) no longer indexes every earlier object once per entry.
+      Box near = spec.region;
+      for (int d = 0; d < 3; ++d) {
+        near.lo[d] -= own.r;
+        near.hi[d] += own.r;
+      }
+      for (const auto& o : objects) {
+        const Box b = o.shape ? o.shape->box : bounding_box(o.mesh);
+        if (b.overlaps(near)) placed.add(b);
+      }
       for (int d = 0; d < 3; ++d)
         if (spec.region.hi[d] - spec.region.lo[d] < 2 * own.r) {
           std::ostringstream s;
