@@ -58,6 +58,9 @@ struct BenchResult {
   /// Load imbalance: max over ranks / mean of the compute seconds (forces, integration,
   /// detection, depth: the phases without communication) of the timed steps.
   double compute_imbalance = 1;
+  /// The same from process CPU seconds of forces, detection and depth (PhaseTimes::work_cpu,
+  /// what the rebalance weighs): meaningful also when ranks share cores.
+  double cpu_imbalance = 1;
   /// Collision records whose triangle lies on another rank's object / all records.
   double cross_rank_fraction = 0;
   std::int64_t ghost_rebuilds = 0;  ///< ghost-set rebuilds during the timed steps (rank 0)

@@ -6,6 +6,9 @@ namespace softcontact {
 
 struct PhaseTimes {
   double forces = 0, integrate = 0, detect = 0, depth = 0, contact = 0, comm = 0, output = 0;
+  /// Process CPU seconds (all threads) of forces, detection and depth: the rebalance's
+  /// work measure, not part of total().
+  double work_cpu = 0;
   PhaseTimes& operator+=(const PhaseTimes& o) {
     forces += o.forces;
     integrate += o.integrate;
@@ -14,10 +17,11 @@ struct PhaseTimes {
     contact += o.contact;
     comm += o.comm;
     output += o.output;
+    work_cpu += o.work_cpu;
     return *this;
   }
   PhaseTimes scaled(double s) const {
-    return {forces * s, integrate * s, detect * s, depth * s, contact * s, comm * s, output * s};
+    return {forces * s, integrate * s, detect * s, depth * s, contact * s, comm * s, output * s, work_cpu * s};
   }
   double total() const { return forces + integrate + detect + depth + contact + comm + output; }
 };

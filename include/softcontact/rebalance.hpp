@@ -22,7 +22,13 @@ struct RebalancePolicy {
   std::int64_t check_every = 200;   ///< steps between checks (0: never)
   double max_imbalance = 1.25;      ///< repartition when max/mean of the per-rank work passes this
   double max_cross_fraction = 0.5;  ///< ... or when this fraction of the collisions crosses ranks
+  /// Node weights of the repartition: measured cost (measured_weights), or the static
+  /// work alone (tets; what the initial partition uses).
+  bool measured_weights = true;
 };
+
+/// The policy a scene asks for (`simulation.rebalance`, docs/formats.md).
+RebalancePolicy rebalance_policy(const Simulation& sim);
 
 /// The partition METIS gives the scene's objects at their initial positions: nodes
 /// weighted by tets (kinematic objects by a tenth of their surface triangles), edges
@@ -31,23 +37,54 @@ std::vector<int> initial_partition(const Scene& scene, int nranks);
 
 /// The same partition at the object boxes `boxes` (objects that have moved; a box with
 /// a non-finite corner counts as a point at the origin). Identical on every rank.
+/// `weights`: the nodes' weights (measured_weights); empty: the static work (tets, a
+/// tenth of the surface triangles for kinematic objects).
 std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes,
-                              int nranks);
+                              int nranks, std::vector<std::int64_t> weights = {});
 
-/// This rank's figures since the last check: seconds of forces, detection and depth (the
-/// response waits for other ranks, so it is left out), and its collisions, of which
-/// `cross` have their triangle on another rank's object.
+/// The static work of object k: its tets; a kinematic object (no forces, only its share
+/// of detection) a tenth of its surface triangles.
+std::int64_t static_work(const Scene& scene, std::size_t k);
+
+/// Partition weights from measured cost, by object, in microseconds (at least 1):
+///
+/// 1. A cost model fitted to every rank's measurement: T_r = a S_r + b C_r, with T_r the
+///    seconds rank r measured (forces, detection and depth since the last check), S_r
+///    the static work + 1 of its objects in `part` and C_r their colliding surface
+///    vertices over the same steps (`contacts`, per object, summed over ranks; empty:
+///    none). Least squares over the ranks; a fit with a <= 0, b < 0 or not finite (too
+///    few ranks, noise) falls back to b = 0 (a = sum S T / sum S^2).
+/// 2. Each rank's seconds spread over its objects in proportion to a (s_k + 1) + b c_k
+///    (as LAMMPS' `balance ... weight time` does by atom, here with the model's shares):
+///    the parts' predicted costs are exactly the measured seconds, and within a rank the
+///    objects in contact weigh more than those at rest.
+///
+/// When some rank measured no time (non-positive or not finite), every weight is the
+/// static work + 1 (no mixing of units). Identical on every rank given the same input
+/// (arithmetic in object and rank order).
+std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector<int>& part,
+                                           const std::vector<double>& rank_seconds,
+                                           const std::vector<std::int64_t>& contacts = {});
+
+/// This rank's figures since the last check: CPU seconds of forces, detection and depth
+/// (process CPU time, so that ranks sharing a core on an oversubscribed node are not
+/// charged for each other; the response waits for other ranks, so it is left out), and
+/// its collisions, of which `cross` have their triangle on another rank's object.
 struct RankWork {
   double seconds = 0;
   std::int64_t cross = 0, collisions = 0;
+  /// Per scene object: colliding surface vertices of this rank's records (vertex records
+  /// by their point's object) summed over the steps since the last check; empty: none.
+  std::vector<std::int64_t> contacts;
 };
 
 /// Whether `step` is one of the policy's checks (a positive multiple of check_every).
 bool rebalance_due(const RebalancePolicy& policy, std::int64_t step);
 
 /// At a step rebalance_due() names: when the work per rank is out of balance or too many
-/// collisions cross ranks, METIS partitions the current boxes and
-/// the new parts are relabelled to keep objects where they are (rank 0 logs it). Returns
+/// collisions cross ranks, METIS partitions the current boxes with the measured weights
+/// (measured_weights of every rank's seconds) and the new parts are relabelled to keep
+/// objects where they are (rank 0 logs it). Returns
 /// true with `next` set when it repartitioned (`next` may equal `current`). Every rank
 /// takes the same decision. Collective.
 bool rebalance(MPI_Comm comm, const Scene& scene, const World& w,

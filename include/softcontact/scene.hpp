@@ -129,6 +129,9 @@ struct SceneObject {
 
 enum class ContactClosure { local, coupled };
 
+/// Node weights of a repartition: the measured cost (seconds and contacts), or tets.
+enum class RebalanceWeights { measured, tets };
+
 struct Simulation {
   bool dt_auto = true;
   double dt = 0;                    ///< [s]; when dt_auto, filled in from the stability limit
@@ -165,6 +168,13 @@ struct Simulation {
   // when more than max_inverted_fraction of the movable tets are inverted.
   double max_speed = 0;
   double max_inverted_fraction = 0.01;
+  // Repartitioning as the run goes (docs/architecture.md, "Migration"; rebalance.hpp): a
+  // check every N steps (0: never) repartitions when the ranks' measured work is more
+  // than max_imbalance apart or more than max_cross_fraction of the collisions cross ranks.
+  std::int64_t rebalance_every = 200;
+  double rebalance_max_imbalance = 1.25;
+  double rebalance_max_cross_fraction = 0.5;
+  RebalanceWeights rebalance_weights = RebalanceWeights::measured;
 };
 
 struct Scene {

@@ -89,6 +89,8 @@ public:
 
   /// Median edge length of all tets of the scene [m].
   double median_edge() const { return median_edge_; }
+  /// The detector's cell size: the scene's mean tet edge, summed from each rank's objects [m].
+  double cell_size() const { return collision_settings_.cell_size; }
 
   /// Object -> rank of the current partition.
   const std::vector<int>& partition() const { return partition_; }
@@ -147,7 +149,7 @@ private:
   void follow_ghosts();
   // Drops the meshes of the objects this rank neither owns nor ghosts (Scene::drop_meshes).
   void drop_unneeded_meshes();
-  double owned_median_edge() const;  // collective
+  double edge_statistics(double& mean) const;  // collective: median and mean edge
   void maybe_rebalance();
 
   MPI_Comm comm_;
@@ -159,7 +161,8 @@ private:
   std::unique_ptr<GhostSet> ghosts_;  // the parallel layer's ghost objects and halo (ghosts.hpp)
   RebalancePolicy rebalance_;
   std::int64_t repartitions_ = 0, cross_collisions_ = 0;
-  double work_seconds_ = 0;          // forces, detection and depth seconds since the last rebalance check
+  double work_seconds_ = 0;          // forces, detection and depth CPU seconds since the last rebalance check
+  std::vector<std::int64_t> window_contacts_;  // per object: colliding surface vertices since then (this rank's records)
   std::unique_ptr<SerialStepper> core_;  // the step's physics on this rank's World (stepper.hpp)
   PhaseTimes times_;
   std::int64_t timed_steps_ = 0;

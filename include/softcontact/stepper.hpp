@@ -26,12 +26,17 @@ class NeighbourExchange;
 class UnconstrainedMotion;
 
 /// Mean and median length over every tet edge of the scene (an edge counts once per
-/// tet) [m]; the same on every rank.
+/// tet) [m]; the same on every rank. The mean is mean_of_object_sums of the objects' sums.
 void scene_edge_lengths(const Scene& scene, double& mean, double& median);
 /// The mean alone, without holding the lengths: bitwise the mean of scene_edge_lengths.
 double scene_mean_edge(const Scene& scene);
 /// Appends the six edge lengths of every tet of `m`, in tet order [m].
 void append_edge_lengths(const TetMesh& m, std::vector<double>& len);
+/// The sum of m's edge lengths in tet order [m]; `len` holds them afterwards.
+double object_edge_sum(const TetMesh& m, std::vector<double>& len);
+/// The mean edge from each object's sum (object_edge_sum, in scene order) and the number
+/// of edges: the definition every rank count shares [m].
+double mean_of_object_sums(const std::vector<double>& sums, std::int64_t count);
 /// The detector's settings for the scene: its self-contact and edge-contact keys, and
 /// the mean edge length as the grid's cell size.
 CollisionSettings collision_settings_for(const Scene& scene);

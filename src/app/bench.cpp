@@ -151,7 +151,7 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
   const double start = MPI_Wtime();
   double last_report = start, loop_start = start;
   std::int64_t unused = 0, bytes0 = 0, rebuilds0 = 0, cross = 0, records = 0, edge_searches = 0, edge_pairs = 0;
-  double compute = 0;
+  double compute = 0, compute_cpu = 0;
   for (std::int64_t k = 1; k <= total_steps; ++k) {
     const bool timed = k > opt.warmup;
     if (k == opt.warmup + 1) {
@@ -172,6 +172,7 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
       counts[2 * i] = sim.collision_stats().colliding_points;
       counts[2 * i + 1] = sim.collision_stats().collisions;
       compute += p.forces + p.integrate + p.detect + p.depth;
+      compute_cpu += p.work_cpu;
       cross += sim.cross_rank_collisions();
       records += sim.collision_stats().collisions;
       edge_searches += sim.collision_stats().edge_pair_searches;
@@ -201,16 +202,19 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
   }
   {
     const double bytes = static_cast<double>(sim.halo_bytes() - bytes0) / static_cast<double>(n);
-    double bmax = bytes, bsum = bytes, cmax = compute, csum = compute;
+    double bmax = bytes, bsum = bytes, cmax = compute, csum = compute, umax = compute_cpu, usum = compute_cpu;
     MPI_Allreduce(MPI_IN_PLACE, &bmax, 1, MPI_DOUBLE, MPI_MAX, comm);
     MPI_Allreduce(MPI_IN_PLACE, &bsum, 1, MPI_DOUBLE, MPI_SUM, comm);
     MPI_Allreduce(MPI_IN_PLACE, &cmax, 1, MPI_DOUBLE, MPI_MAX, comm);
     MPI_Allreduce(MPI_IN_PLACE, &csum, 1, MPI_DOUBLE, MPI_SUM, comm);
+    MPI_Allreduce(MPI_IN_PLACE, &umax, 1, MPI_DOUBLE, MPI_MAX, comm);
+    MPI_Allreduce(MPI_IN_PLACE, &usum, 1, MPI_DOUBLE, MPI_SUM, comm);
     std::int64_t cr[2] = {cross, records};
     MPI_Allreduce(MPI_IN_PLACE, cr, 2, MPI_INT64_T, MPI_SUM, comm);
     r.halo_bytes_max = bmax;
     r.halo_bytes_mean = bsum / size;
     r.compute_imbalance = csum > 0 ? cmax / (csum / size) : 1;
+    r.cpu_imbalance = usum > 0 ? umax / (usum / size) : 1;
     r.cross_rank_fraction = cr[1] > 0 ? static_cast<double>(cr[0]) / static_cast<double>(cr[1]) : 0;
     r.ghost_rebuilds = sim.ghost_rebuilds() - rebuilds0;
     MPI_Allreduce(MPI_IN_PLACE, &edge_pairs, 1, MPI_INT64_T, MPI_SUM, comm);
@@ -281,8 +285,8 @@ void print_bench_table(std::ostream& out, const BenchResult& r) {
   if (r.ranks > 1)
     out << "  halo traffic per step and rank: max " << fixed(r.halo_bytes_max / 1024, 1) << " KiB, mean "
         << fixed(r.halo_bytes_mean / 1024, 1) << " KiB; ghost rebuilds " << r.ghost_rebuilds << "\n"
-        << "  load imbalance (compute, max/mean over ranks): " << fixed(r.compute_imbalance, 3)
-        << "; collisions crossing ranks: " << fixed(100 * r.cross_rank_fraction, 1) << "%\n";
+        << "  load imbalance (compute, max/mean over ranks): wall " << fixed(r.compute_imbalance, 3) << ", CPU "
+        << fixed(r.cpu_imbalance, 3) << "; collisions crossing ranks: " << fixed(100 * r.cross_rank_fraction, 1) << "%\n";
 }
 
 std::string bench_csv_header() {
@@ -291,7 +295,7 @@ std::string bench_csv_header() {
       "collisions_max,total_ms_median,total_ms_mean";
   for (const PhaseColumn& p : kPhases) h += std::string(",") + p.column + "_ms_median," + p.column + "_ms_mean";
   h += ",steps_per_second,setup_s,rss_max_mib,rss_mean_mib,omp_wait_policy,halo_bytes_max,halo_bytes_mean,"
-       "compute_imbalance,cross_rank_fraction,ghost_rebuilds";
+       "compute_imbalance,cross_rank_fraction,ghost_rebuilds,cpu_imbalance";
   return h;
 }
 
@@ -308,7 +312,7 @@ std::string bench_csv_row(const BenchResult& r) {
   s << ',' << num(r.steps_per_second()) << ',' << num(r.setup_seconds) << ',' << num(r.rss_max_mib) << ','
     << num(r.rss_mean_mib) << ',' << csv_field(r.omp_wait_policy) << ',' << num(r.halo_bytes_max) << ','
     << num(r.halo_bytes_mean) << ',' << num(r.compute_imbalance) << ',' << num(r.cross_rank_fraction) << ','
-    << r.ghost_rebuilds;
+    << r.ghost_rebuilds << ',' << num(r.cpu_imbalance);
   return s.str();
 }
 

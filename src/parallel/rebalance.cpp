@@ -1,6 +1,7 @@
 // Objects over ranks as the run goes (rebalance.hpp).
 #include "softcontact/rebalance.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <iostream>
@@ -12,12 +13,71 @@
 
 namespace softcontact {
 
-namespace {
 // Kinematic objects cost no forces, only their share of detection.
-std::int64_t object_work(const Scene& scene, std::size_t k) {
+std::int64_t static_work(const Scene& scene, std::size_t k) {
   const ObjectShape& s = scene.shape(k);
   return scene.objects[k].kinematic ? static_cast<std::int64_t>(s.triangles / 10) : static_cast<std::int64_t>(s.tets);
 }
+
+std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector<int>& part,
+                                           const std::vector<double>& rank_seconds,
+                                           const std::vector<std::int64_t>& contacts) {
+  const std::size_t no = scene.objects.size();
+  if (part.size() != no) throw RuntimeFailure("measured_weights: the partition has the wrong size");
+  if (!contacts.empty() && contacts.size() != no) throw RuntimeFailure("measured_weights: the contacts have the wrong size");
+  std::vector<std::int64_t> w(no);
+  for (std::size_t k = 0; k < no; ++k) w[k] = static_work(scene, k) + 1;
+  bool measured = !rank_seconds.empty();
+  for (double t : rank_seconds) measured = measured && std::isfinite(t) && t > 0;
+  if (!measured) return w;
+  const std::size_t nr = rank_seconds.size();
+  auto contact = [&](std::size_t k) { return contacts.empty() ? 0.0 : static_cast<double>(std::max<std::int64_t>(contacts[k], 0)); };
+  std::vector<double> S(nr, 0.0), C(nr, 0.0);
+  for (std::size_t k = 0; k < no; ++k) {
+    const auto r = static_cast<std::size_t>(part[k]);
+    if (part[k] < 0 || r >= nr) throw RuntimeFailure("measured_weights: the partition names rank " + std::to_string(part[k]));
+    S[r] += static_cast<double>(w[k]);
+    C[r] += contact(k);
+  }
+  // Least squares for T = a S + b C over the ranks (normal equations, 2 x 2).
+  double ss = 0, sc = 0, cc = 0, st = 0, ct = 0;
+  for (std::size_t r = 0; r < nr; ++r) {
+    ss += S[r] * S[r];
+    sc += S[r] * C[r];
+    cc += C[r] * C[r];
+    st += S[r] * rank_seconds[r];
+    ct += C[r] * rank_seconds[r];
+  }
+  const double det = ss * cc - sc * sc;
+  double a = det > 0 ? (st * cc - ct * sc) / det : 0, b = det > 0 ? (ss * ct - sc * st) / det : 0;
+  if (!(det > 1e-12 * ss * cc) || !(a > 0) || !(b >= 0) || !std::isfinite(a) || !std::isfinite(b)) {
+    a = ss > 0 ? st / ss : 1;
+    b = 0;
+  }
+  std::vector<double> model(no), rank_model(nr, 0.0);
+  for (std::size_t k = 0; k < no; ++k) {
+    model[k] = a * static_cast<double>(w[k]) + b * contact(k);
+    rank_model[static_cast<std::size_t>(part[k])] += model[k];
+  }
+  for (std::size_t k = 0; k < no; ++k) {
+    const auto r = static_cast<std::size_t>(part[k]);
+    const double us = rank_model[r] > 0 ? 1e6 * rank_seconds[r] * model[k] / rank_model[r] : 1;
+    w[k] = std::max<std::int64_t>(1, std::llround(std::min(us, 1e15)));
+  }
+  return w;
+}
+
+RebalancePolicy rebalance_policy(const Simulation& sim) {
+  RebalancePolicy p;
+  p.check_every = sim.rebalance_every;
+  p.max_imbalance = sim.rebalance_max_imbalance;
+  p.max_cross_fraction = sim.rebalance_max_cross_fraction;
+  p.measured_weights = sim.rebalance_weights == RebalanceWeights::measured;
+  return p;
+}
+
+namespace {
+std::int64_t object_work(const Scene& scene, std::size_t k) { return static_work(scene, k); }
 
 // Keep objects where they are as far as the new parts allow: relabel each new part as the
 // old rank it shares the most work with (greedy, heaviest overlaps first).
@@ -63,12 +123,15 @@ VertexState state_row(const StepState& s, std::size_t v) {
 }
 }  // namespace
 
-std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes, int nranks) {
+std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes, int nranks,
+                              std::vector<std::int64_t> weights) {
   const std::size_t no = scene.objects.size();
   if (nranks <= 1) return std::vector<int>(no, 0);
+  if (!weights.empty() && weights.size() != no) throw RuntimeFailure("partition_at: the weights have the wrong size");
   PartitionInput in;
+  in.weight = std::move(weights);
   for (std::size_t k = 0; k < no; ++k) {
-    in.weight.push_back(object_work(scene, k));
+    if (in.weight.size() < no) in.weight.push_back(object_work(scene, k));
     for (int d = 0; d < 3; ++d)
       if (!std::isfinite(boxes[k].lo[d]) || !std::isfinite(boxes[k].hi[d]) || !(boxes[k].lo[d] <= boxes[k].hi[d]))
         boxes[k].lo[d] = boxes[k].hi[d] = 0;  // a blown-up object
@@ -99,12 +162,25 @@ bool rebalance(MPI_Comm comm, const Scene& scene, const World& w,
   const double cross = sum[2] > 0 ? sum[1] / sum[2] : 0;
   // Both figures are reduced, so every rank takes the same decision.
   if (!(imbalance > policy.max_imbalance) && !(cross > policy.max_cross_fraction)) return false;
-  next = partition_at(scene, object_boxes(comm, scene, w), nranks);
+  // Every rank's seconds (a gather copies them: the same bits everywhere), so every rank
+  // computes the same weights and METIS the same parts.
+  std::vector<std::int64_t> weights;
+  if (policy.measured_weights) {
+    std::vector<double> seconds(static_cast<std::size_t>(nranks));
+    MPI_Allgather(&work.seconds, 1, MPI_DOUBLE, seconds.data(), 1, MPI_DOUBLE, comm);
+    // Each object's contacts come from the ranks that found them (integers: exact sums).
+    std::vector<std::int64_t> contacts(scene.objects.size(), 0);
+    if (work.contacts.size() == contacts.size()) contacts = work.contacts;
+    MPI_Allreduce(MPI_IN_PLACE, contacts.data(), static_cast<int>(contacts.size()), MPI_INT64_T, MPI_SUM, comm);
+    weights = measured_weights(scene, current, seconds, contacts);
+  }
+  next = partition_at(scene, object_boxes(comm, scene, w), nranks, std::move(weights));
   keep_objects_in_place(scene, current, nranks, next);
   std::int64_t moved = 0;
   for (std::size_t k = 0; k < next.size(); ++k) moved += next[k] != current[k] ? 1 : 0;
   if (comm_rank(comm) == 0)
-    std::cerr << "softcontact: step " << step << ": repartitioning (work imbalance " << imbalance
+    std::cerr << "softcontact: step " << step << ": repartitioning by " << (policy.measured_weights ? "measured cost" : "tets")
+              << " (work imbalance " << imbalance
               << ", cross-rank collisions " << cross * 100 << "%): " << moved << " of " << next.size()
               << " objects move\n";
   return true;

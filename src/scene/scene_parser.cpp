@@ -219,7 +219,8 @@ private:
 
 void parse_simulation(const Reader& r, const YAML::Node& n, Simulation& sim) {
   r.check_keys(n, {"dt", "dt_safety", "dt_bound", "end_time", "steps", "gravity", "integrator", "output", "self_collisions",
-                   "edge_contacts", "mutual_pairs", "contact_closure", "separation_speed", "checkpoint", "limits"},
+                   "edge_contacts", "mutual_pairs", "contact_closure", "separation_speed", "checkpoint", "limits",
+                   "rebalance"},
                "'simulation'");
   if (const auto dt = n["dt"]) {
     if (dt.IsScalar() && dt.Scalar() == "auto") {
@@ -267,6 +268,22 @@ void parse_simulation(const Reader& r, const YAML::Node& n, Simulation& sim) {
     if (const auto e = c["every"]) sim.checkpoint_every = r.integer(e, "'checkpoint.every' (steps between checkpoints)", 1, std::int64_t{1} << 40);
     if (const auto m = c["minutes"]) sim.checkpoint_minutes = r.positive(m, "'checkpoint.minutes' (wall minutes between checkpoints)");
     if (const auto k = c["keep"]) sim.checkpoint_keep = r.integer(k, "'checkpoint.keep' (checkpoints kept)", 1, 1000);
+  }
+  if (const auto rb = n["rebalance"]) {
+    r.check_keys(rb, {"every", "max_imbalance", "max_cross_fraction", "weights"}, "'simulation.rebalance'");
+    if (const auto e = rb["every"])
+      sim.rebalance_every = r.integer(e, "'rebalance.every' (steps between checks, 0: never)", 0, std::int64_t{1} << 40);
+    if (const auto m = rb["max_imbalance"]) {
+      sim.rebalance_max_imbalance = r.positive(m, "'rebalance.max_imbalance' (max/mean of the ranks' work)");
+      if (sim.rebalance_max_imbalance < 1) r.fail(m, "'rebalance.max_imbalance' must be at least 1, got " + m.Scalar());
+    }
+    if (const auto f = rb["max_cross_fraction"]) {
+      sim.rebalance_max_cross_fraction = r.positive(f, "'rebalance.max_cross_fraction'");
+      if (sim.rebalance_max_cross_fraction > 1) r.fail(f, "'rebalance.max_cross_fraction' must be in (0, 1], got " + f.Scalar());
+    }
+    if (const auto w = rb["weights"])
+      sim.rebalance_weights = r.choice<RebalanceWeights>(w, "rebalance.weights",
+                                                         {{"measured", RebalanceWeights::measured}, {"tets", RebalanceWeights::tets}});
   }
   if (const auto l = n["limits"]) {
     r.check_keys(l, {"max_speed", "max_inverted_fraction"}, "'simulation.limits'");

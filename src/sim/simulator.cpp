@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <cmath>
 #include <cstring>
+#include <ctime>
 #include <iostream>
 #include <limits>
 
@@ -28,16 +29,18 @@ namespace softcontact {
 
 Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partition)
     : comm_(comm), rank_(comm_rank(comm)), nranks_(comm_size(comm)), scene_(scene) {
+  rebalance_ = rebalance_policy(scene.sim);
   partition_ = partition.empty() ? initial_partition(scene, nranks_) : std::move(partition);
   if (partition_.size() != scene.objects.size())
     throw RuntimeFailure("Simulator: the partition names " + std::to_string(partition_.size()) + " objects, the scene has " +
                          std::to_string(scene.objects.size()));
   for (int r : partition_)
     if (r < 0 || r >= nranks_) throw RuntimeFailure("Simulator: the partition names rank " + std::to_string(r));
-  collision_settings_ = collision_settings_for(scene, scene_mean_edge(scene));
-  ghosts_ = std::make_unique<GhostSet>(comm, scene_, collision_settings_.cell_size);
   world_ = build_world(scene, partition_, rank_);
-  median_edge_ = owned_median_edge();
+  double mean_edge = 0;
+  median_edge_ = edge_statistics(mean_edge);
+  collision_settings_ = collision_settings_for(scene, mean_edge);
+  ghosts_ = std::make_unique<GhostSet>(comm, scene_, collision_settings_.cell_size);
   drop_unneeded_meshes();  // the ghosts' meshes are made again as the ghost set takes them
   build_components();
   rebuild_ghosts(true);
@@ -70,13 +73,20 @@ void Simulator::follow_ghosts() {
   core_->resize();
 }
 
-// The median of the scene's tet edges, from each rank's own objects (kth_smallest): no
-// rank holds the lengths of the whole scene.
-double Simulator::owned_median_edge() const {
-  std::vector<double> len;
-  for (int k : world_.owned_objects) append_edge_lengths(scene_.mesh(static_cast<std::size_t>(k)), len);
-  auto total = static_cast<std::int64_t>(len.size());
-  MPI_Allreduce(MPI_IN_PLACE, &total, 1, MPI_INT64_T, MPI_SUM, comm_);
+// The mean and median of the scene's tet edges from each rank's own objects: no rank
+// reads the meshes of the whole scene or holds its lengths. The mean is the objects' sums
+// in scene order (mean_of_object_sums; each sum comes from its owner, the others add
+// exact zeros), the median an exact selection over the ranks (kth_smallest).
+double Simulator::edge_statistics(double& mean) const {
+  std::vector<double> sums(scene_.objects.size(), 0.0), len, own;
+  for (int k : world_.owned_objects) {
+    sums[static_cast<std::size_t>(k)] = object_edge_sum(scene_.mesh(static_cast<std::size_t>(k)), own);
+    len.insert(len.end(), own.begin(), own.end());
+  }
+  MPI_Allreduce(MPI_IN_PLACE, sums.data(), static_cast<int>(sums.size()), MPI_DOUBLE, MPI_SUM, comm_);
+  std::int64_t total = 0;
+  for (std::size_t k = 0; k < scene_.objects.size(); ++k) total += 6 * static_cast<std::int64_t>(scene_.shape(k).tets);
+  mean = mean_of_object_sums(sums, total);
   return total > 0 ? kth_smallest(comm_, len, total / 2) : 0;
 }
 
@@ -165,6 +175,14 @@ void Simulator::step() {
 }
 
 namespace {
+// CPU seconds of the process so far (all its threads): the rebalance's work measure,
+// which a rank sharing a core with others (an oversubscribed node) is not charged for.
+double process_cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
 // Runs f as one phase: its PETSc log event around it; returns its wall seconds.
 template <class F>
 double timed_phase(PetscLogEvent PhaseEvents::*event, F&& f) {
@@ -179,9 +197,11 @@ double timed_phase(PetscLogEvent PhaseEvents::*event, F&& f) {
 }  // namespace
 
 void Simulator::forces_phase() {
-  const double s = timed_phase(&PhaseEvents::forces, [this] { core_->forces(); });
-  times_.forces += s;
-  work_seconds_ += s;
+  const double cpu = process_cpu_seconds();
+  times_.forces += timed_phase(&PhaseEvents::forces, [this] { core_->forces(); });
+  const double used = process_cpu_seconds() - cpu;
+  work_seconds_ += used;
+  times_.work_cpu += used;
 }
 
 void Simulator::unconstrained_motion() {
@@ -200,12 +220,15 @@ void Simulator::refresh_predicted_ghosts() {
 // The detector times its two parts itself; the mutual records' key exchange is comm.
 void Simulator::detection_and_depth() {
   const double exchanged = core_->exchange_seconds();
+  const double cpu = process_cpu_seconds();
   timed_phase(&PhaseEvents::collide, [this] { core_->detection_and_depth(ghosts_->exchange()); });
+  const double used = process_cpu_seconds() - cpu;
+  work_seconds_ += used;
+  times_.work_cpu += used;
   const CollisionStats& st = core_->collision_stats();
   times_.detect += st.detection_seconds;
   times_.depth += st.depth_seconds;
   times_.comm += core_->exchange_seconds() - exchanged;
-  work_seconds_ += st.detection_seconds + st.depth_seconds;
 }
 
 void Simulator::contact_response() {
@@ -223,14 +246,22 @@ void Simulator::refresh_final_ghosts() {
   core_->update_anchors();
   cross_collisions_ = 0;
   for (const Collision& c : core_->collisions()) cross_collisions_ += world_.owns_object(c.other_object) ? 0 : 1;
+  // Colliding surface vertices per object for the rebalance's weights (vertex records,
+  // by their point's object; this rank finds the records of its own points).
+  if (nranks_ > 1 && rebalance_.check_every > 0 && rebalance_.measured_weights) {
+    window_contacts_.resize(scene_.objects.size(), 0);
+    for (const Collision& c : core_->collisions())
+      if (c.point2 < 0) ++window_contacts_[static_cast<std::size_t>(world_.vertex_object[static_cast<std::size_t>(c.point)])];
+  }
 }
 
-// Every check_every steps: repartition with METIS at the current boxes when the work per
-// rank (measured seconds of forces, detection and depth) is out of balance or too many
+// Every check_every steps: repartition with METIS at the current boxes, weighted by the
+// measured cost, when the work per rank (CPU seconds of forces, detection and depth) is out of balance or too many
 // collisions cross ranks, and migrate the objects that change rank (rebalance.hpp).
 void Simulator::maybe_rebalance() {
   if (nranks_ == 1 || !rebalance_due(rebalance_, step_)) return;
-  const RankWork work{work_seconds_, cross_collisions_, static_cast<std::int64_t>(core_->collisions().size())};
+  RankWork work{work_seconds_, cross_collisions_, static_cast<std::int64_t>(core_->collisions().size()), {}};
+  work.contacts.swap(window_contacts_);
   work_seconds_ = 0;
   std::vector<int> next;
   if (!rebalance(comm_, scene_, world_, partition_, rebalance_, step_, work, next)) return;

@@ -22,40 +22,50 @@ void append_edge_lengths(const TetMesh& m, std::vector<double>& len) {
     }
 }
 
-namespace {
-// The lengths object by object; the sum runs over all of them in scene order, so the
-// mean is bitwise the same however the lengths are held.
-template <class F>
-double sum_edge_lengths(const Scene& scene, std::size_t& count, F&& each_object) {
+double object_edge_sum(const TetMesh& m, std::vector<double>& len) {
+  len.clear();
+  append_edge_lengths(m, len);
   double sum = 0;
+  for (double l : len) sum += l;
+  return sum;
+}
+
+double mean_of_object_sums(const std::vector<double>& sums, std::int64_t count) {
+  double sum = 0;
+  for (double s : sums) sum += s;
+  return count > 0 ? sum / static_cast<double>(count) : 0;
+}
+
+namespace {
+// The lengths object by object: each object's sum in tet order, then those sums in scene
+// order (mean_of_object_sums), so the mean is bitwise the same however the objects are
+// spread over ranks (Simulator::edge_statistics sums each rank's own objects).
+template <class F>
+double sum_edge_lengths(const Scene& scene, std::int64_t& count, F&& each_object) {
+  std::vector<double> sums(scene.objects.size(), 0.0), len;
   count = 0;
-  std::vector<double> len;
   for (std::size_t k = 0; k < scene.objects.size(); ++k) {
     const Scene::MeshView view = scene.view_mesh(k);
-    len.clear();
-    append_edge_lengths(view.get(), len);
-    for (double l : len) sum += l;
-    count += len.size();
+    sums[k] = object_edge_sum(view.get(), len);
+    count += static_cast<std::int64_t>(len.size());
     each_object(len);
   }
-  return sum;
+  return mean_of_object_sums(sums, count);
 }
 }  // namespace
 
 double scene_mean_edge(const Scene& scene) {
-  std::size_t n = 0;
-  const double sum = sum_edge_lengths(scene, n, [](const std::vector<double>&) {});
-  return n > 0 ? sum / static_cast<double>(n) : 0;
+  std::int64_t n = 0;
+  return sum_edge_lengths(scene, n, [](const std::vector<double>&) {});
 }
 
 void scene_edge_lengths(const Scene& scene, double& mean, double& median) {
   std::vector<double> len;
   len.reserve(6 * scene.num_tets());
-  std::size_t n = 0;
-  const double sum = sum_edge_lengths(scene, n, [&](const std::vector<double>& l) { len.insert(len.end(), l.begin(), l.end()); });
-  mean = median = 0;
+  std::int64_t n = 0;
+  mean = sum_edge_lengths(scene, n, [&](const std::vector<double>& l) { len.insert(len.end(), l.begin(), l.end()); });
+  median = 0;
   if (len.empty()) return;
-  mean = sum / static_cast<double>(len.size());
   std::nth_element(len.begin(), len.begin() + static_cast<std::ptrdiff_t>(len.size() / 2), len.end());
   median = len[len.size() / 2];
 }

@@ -449,3 +449,32 @@ TEST(SceneParser, DtBoundIsElementOrMesh) {
   expect_error(scene_with(kBox, "  dt: auto\n  steps: 10\n  dt_bound: meshes\n"),
                {"scene.yaml:4:", "unknown dt_bound 'meshes'", "expected one of: element mesh"});
 }
+
+// 'rebalance' sets the repartition policy (docs/formats.md): defaults every 200 steps,
+// 1.25, 0.5, measured weights; each key is read, and out-of-range values are input errors
+// at their line.
+TEST(SceneParser, RebalanceKeys) {
+  const Scene d = load_scene_from_string(scene_with(kBox, "  dt: auto\n  steps: 10\n"), "scene.yaml");
+  EXPECT_EQ(d.sim.rebalance_every, 200);
+  EXPECT_EQ(d.sim.rebalance_max_imbalance, 1.25);
+  EXPECT_EQ(d.sim.rebalance_max_cross_fraction, 0.5);
+  EXPECT_EQ(d.sim.rebalance_weights, RebalanceWeights::measured);
+  const Scene s = load_scene_from_string(
+      scene_with(kBox, "  dt: auto\n  steps: 10\n  rebalance: {every: 50, max_imbalance: 1.1, max_cross_fraction: 0.3, weights: tets}\n"),
+      "scene.yaml");
+  EXPECT_EQ(s.sim.rebalance_every, 50);
+  EXPECT_EQ(s.sim.rebalance_max_imbalance, 1.1);
+  EXPECT_EQ(s.sim.rebalance_max_cross_fraction, 0.3);
+  EXPECT_EQ(s.sim.rebalance_weights, RebalanceWeights::tets);
+  EXPECT_EQ(load_scene_from_string(scene_with(kBox, "  dt: auto\n  steps: 10\n  rebalance: {every: 0}\n"), "scene.yaml")
+                .sim.rebalance_every,
+            0);
+  expect_error(scene_with(kBox, "  dt: auto\n  steps: 10\n  rebalance: {weights: time}\n"),
+               {"scene.yaml:4:", "unknown rebalance.weights 'time'", "measured tets"});
+  expect_error(scene_with(kBox, "  dt: auto\n  steps: 10\n  rebalance: {max_imbalance: 0.9}\n"),
+               {"scene.yaml:4:", "'rebalance.max_imbalance' must be at least 1"});
+  expect_error(scene_with(kBox, "  dt: auto\n  steps: 10\n  rebalance: {max_cross_fraction: 2}\n"),
+               {"scene.yaml:4:", "'rebalance.max_cross_fraction' must be in (0, 1]"});
+  expect_error(scene_with(kBox, "  dt: auto\n  steps: 10\n  rebalance: {every: -1}\n"), {"scene.yaml:4:", "rebalance.every"});
+  expect_error(scene_with(kBox, "  dt: auto\n  steps: 10\n  rebalance: {often: 3}\n"), {"scene.yaml:4:", "often"});
+}

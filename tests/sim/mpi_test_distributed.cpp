@@ -151,6 +151,7 @@ TEST(Distributed, EachRankHoldsOnlyTheMeshesItNeeds) {
     double mean = 0, median = 0;
     scene_edge_lengths(pile(), mean, median);  // every mesh on this rank
     EXPECT_EQ(sim.median_edge(), median) << "the median over ranks (kth_smallest) is the whole scene's";
+    EXPECT_EQ(sim.cell_size(), mean) << "the mean from each rank's objects' sums is the whole scene's";
     const int n = comm_size(MPI_COMM_WORLD);
     for (int s = 1; s <= 60; ++s) {
       sim.step();

@@ -1,0 +1,143 @@
+// Partition weights from measured cost (rebalance.hpp, measured_weights): a rank's
+// measured seconds spread over its objects by their static work, and what METIS makes of
+// them. Reference values by hand: equal cubes, so each object's weight is its rank's
+// seconds over its number of objects.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "softcontact/rebalance.hpp"
+#include "softcontact/scene.hpp"
+
+using namespace softcontact;
+
+namespace {
+
+// Sixteen equal cubes of 48 tets in a row along x, one edge apart (a pile's row of bodies).
+Scene row_of_cubes() {
+  std::string yaml =
+      "simulation: {dt: 0.001, steps: 1}\n"
+      "materials:\n  - {name: m, young: 1e5, poisson: 0.3, density: 1000}\n"
+      "objects:\n"
+      "  - name: cube\n    material: m\n    primitive: {type: box, size: [1, 1, 1], cells: [2, 2, 2]}\n"
+      "    instances: {grid: {count: [16, 1, 1], spacing: [2, 0, 0]}}\n";
+  return load_scene_from_string(yaml, "row.yaml");
+}
+
+// Predicted seconds per part: the sum of its objects' measured weights.
+std::vector<double> part_cost(const std::vector<std::int64_t>& w, const std::vector<int>& part, int n) {
+  std::vector<double> c(static_cast<std::size_t>(n), 0.0);
+  for (std::size_t k = 0; k < w.size(); ++k) c[static_cast<std::size_t>(part[k])] += static_cast<double>(w[k]);
+  return c;
+}
+
+double imbalance(const std::vector<double>& c) {
+  double mx = 0, sum = 0;
+  for (double x : c) {
+    mx = std::max(mx, x);
+    sum += x;
+  }
+  return mx / (sum / static_cast<double>(c.size()));
+}
+
+}  // namespace
+
+// Objects 0-7 on rank 0, which measured 3 s; 8-15 on rank 1, 1 s: each of rank 0's
+// cubes weighs 3/8 s = 375,000 us, each of rank 1's 125,000 us (equal cubes share their
+// rank's time equally). The tet-balanced partition then predicts an imbalance of 3 / 2 =
+// 1.5; METIS on the measured weights balances it to within 1.1 (here exactly: five heavy
+// cubes and one light one make 2 s), moving work off rank 0. (With 8 cubes the best
+// contiguous split is 1.125: single objects are the granularity.)
+TEST(MeasuredWeights, SpreadEachRanksSecondsOverItsObjects) {
+  const Scene scene = row_of_cubes();
+  ASSERT_EQ(scene.objects.size(), 16u);
+  std::vector<int> current(16, 0);
+  for (std::size_t k = 8; k < 16; ++k) current[k] = 1;
+  const std::vector<std::int64_t> w = measured_weights(scene, current, {3.0, 1.0});
+  for (std::size_t k = 0; k < 16; ++k) EXPECT_EQ(w[k], k < 8 ? 375000 : 125000) << "object " << k;
+  EXPECT_DOUBLE_EQ(imbalance(part_cost(w, current, 2)), 1.5);
+
+  std::vector<Box> boxes;
+  for (std::size_t k = 0; k < 16; ++k) boxes.push_back(scene.shape(k).box);
+  const std::vector<int> by_tets = partition_at(scene, boxes, 2);
+  const std::vector<int> by_cost = partition_at(scene, boxes, 2, w);
+  // Tets alone: eight cubes a part, whatever they cost.
+  int on0 = 0;
+  for (int p : by_tets) on0 += p == 0 ? 1 : 0;
+  EXPECT_EQ(on0, 8);
+  EXPECT_DOUBLE_EQ(imbalance(part_cost(w, by_tets, 2)), 1.5);
+  const double measured = imbalance(part_cost(w, by_cost, 2));
+  EXPECT_LT(measured, 1.1) << "METIS on the measured weights";
+  // The part holding more heavy cubes holds fewer cubes.
+  int heavy0 = 0, all0 = 0;
+  for (std::size_t k = 0; k < 16; ++k) {
+    all0 += by_cost[k] == 0 ? 1 : 0;
+    heavy0 += by_cost[k] == 0 && k < 8 ? 1 : 0;
+  }
+  EXPECT_NE(all0, 8) << "an even split by count cannot balance these weights";
+  EXPECT_EQ(heavy0 > 4, all0 < 8);
+}
+
+// A kinematic object's static work is a tenth of its surface triangles; within a rank the
+// time follows static work + 1. A rank without a measurement (0 s, NaN) makes every weight
+// the static work + 1: seconds and tets are not mixed.
+TEST(MeasuredWeights, FollowStaticWorkAndFallBackWithoutAMeasurement) {
+  std::string yaml =
+      "simulation: {dt: 0.001, steps: 1}\n"
+      "materials:\n  - {name: m, young: 1e5, poisson: 0.3, density: 1000}\n"
+      "objects:\n"
+      "  - {name: small, material: m, primitive: {type: box, size: [1, 1, 1], cells: [1, 1, 1]}}\n"
+      "  - name: big\n    material: m\n    primitive: {type: box, size: [1, 1, 1], cells: [2, 2, 2]}\n"
+      "    transform: {translate: [3, 0, 0]}\n"
+      "  - name: floor\n    material: m\n    kinematic: true\n"
+      "    primitive: {type: box, size: [4, 4, 1], cells: [4, 4, 1]}\n    transform: {translate: [0, 0, -3]}\n";
+  const Scene scene = load_scene_from_string(yaml, "mixed.yaml");
+  const std::int64_t s0 = static_work(scene, 0), s1 = static_work(scene, 1), s2 = static_work(scene, 2);
+  EXPECT_EQ(s0, static_cast<std::int64_t>(scene.shape(0).tets));
+  EXPECT_EQ(s1, static_cast<std::int64_t>(scene.shape(1).tets));
+  EXPECT_EQ(s2, static_cast<std::int64_t>(scene.shape(2).triangles / 10));
+  EXPECT_EQ(s1, 8 * s0);
+  const std::vector<int> part = {0, 0, 1};
+  const std::vector<std::int64_t> w = measured_weights(scene, part, {2.0, 0.5});
+  const double r0 = static_cast<double>(s0 + 1 + s1 + 1);
+  EXPECT_EQ(w[0], std::llround(2e6 * static_cast<double>(s0 + 1) / r0));
+  EXPECT_EQ(w[1], std::llround(2e6 * static_cast<double>(s1 + 1) / r0));
+  EXPECT_EQ(w[2], 500000);
+  for (const std::vector<double>& none : {std::vector<double>{2.0, 0.0}, std::vector<double>{std::nan(""), 1.0},
+                                          std::vector<double>{}}) {
+    const std::vector<std::int64_t> f = measured_weights(scene, part, none);
+    EXPECT_EQ(f, (std::vector<std::int64_t>{s0 + 1, s1 + 1, s2 + 1}));
+  }
+}
+
+// The cost model T_r = a S_r + b C_r fitted to the ranks: seconds made from a = 1 ms per
+// unit of static work (49 per cube: 48 tets + 1) and b = 2 ms per colliding surface
+// vertex, with cubes 0 and 1 (100 contacts each) on rank 0 and cube 8 (50) on rank 1.
+// Two ranks determine a and b; each cube then weighs a (s + 1) + b c: 0.049 + 0.2 s for
+// cubes 0 and 1, 0.049 + 0.1 s for cube 8, 0.049 s for the others (within 1 us). Ranks
+// whose seconds contradict the contacts (equal seconds, unequal contacts: b < 0) fall
+// back to b = 0, each rank's seconds spread by static work alone.
+TEST(MeasuredWeights, ContactsFitTheirShareOfTheMeasuredSeconds) {
+  const Scene scene = row_of_cubes();
+  std::vector<int> part(16, 0);
+  for (std::size_t k = 8; k < 16; ++k) part[k] = 1;
+  std::vector<std::int64_t> contacts(16, 0);
+  contacts[0] = contacts[1] = 100;
+  contacts[8] = 50;
+  const double a = 1e-3, b = 2e-3;
+  const std::vector<double> seconds = {a * 8 * 49 + b * 200, a * 8 * 49 + b * 50};
+  const std::vector<std::int64_t> w = measured_weights(scene, part, seconds, contacts);
+  for (std::size_t k = 0; k < 16; ++k) {
+    const double expect = 1e6 * (a * 49 + b * static_cast<double>(contacts[k]));
+    EXPECT_NEAR(static_cast<double>(w[k]), expect, 1.0) << "cube " << k;
+  }
+  // Predicted cost of each part = its measured seconds.
+  EXPECT_NEAR(part_cost(w, part, 2)[0], 1e6 * seconds[0], 16.0);
+  EXPECT_NEAR(part_cost(w, part, 2)[1], 1e6 * seconds[1], 16.0);
+
+  const std::vector<std::int64_t> f = measured_weights(scene, part, {1.0, 1.0}, contacts);
+  for (std::size_t k = 0; k < 16; ++k) EXPECT_EQ(f[k], 125000) << "cube " << k << ": b < 0 falls back to b = 0";
+}
