@@ -34,6 +34,10 @@ struct BenchStep {
   std::int64_t records = 0;      ///< collision records (a point inside two bodies counts twice)
   PhaseTimes seconds;            ///< per phase [s], max over ranks
   double wall = 0;               ///< the whole Simulator::step() [s], max over ranks
+  /// What no phase holds (rebalance checks, migration, bookkeeping): wall minus the phases
+  /// on each rank, then the max over ranks [s] (never negative, unlike the difference of
+  /// the maxima).
+  double other = 0;
 };
 
 /// Median and mean over the timed steps of one quantity.

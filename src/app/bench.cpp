@@ -144,7 +144,7 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
   // Per timed step: the seven phases and the wall time (max over ranks), and the
   // colliding points and records (summed over ranks). Reduced once, after the loop, so
   // that the benchmark adds no communication to the steps it times.
-  constexpr int kD = kNumPhases + 1;
+  constexpr int kD = kNumPhases + 2;  // the phases, the step's wall time, its "other"
   std::vector<double> secs(static_cast<std::size_t>(kD * n), 0.0);
   std::vector<std::int64_t> counts(static_cast<std::size_t>(2 * n), 0);
 
@@ -169,6 +169,7 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
       const std::size_t i = static_cast<std::size_t>(k - opt.warmup - 1);
       for (int c = 0; c < kNumPhases; ++c) secs[kD * i + c] = p.*(kPhases[c].member);
       secs[kD * i + kNumPhases] = wall;
+      secs[kD * i + kNumPhases + 1] = std::max(0.0, wall - p.total());
       counts[2 * i] = sim.collision_stats().colliding_points;
       counts[2 * i + 1] = sim.collision_stats().collisions;
       compute += p.forces + p.integrate + p.detect + p.depth;
@@ -245,6 +246,7 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
     s.records = counts[2 * i + 1];
     for (int c = 0; c < kNumPhases; ++c) s.seconds.*(kPhases[c].member) = secs[kD * i + c];
     s.wall = secs[kD * i + kNumPhases];
+    s.other = secs[kD * i + kNumPhases + 1];
   }
   r.summarise();
   return r;
@@ -272,7 +274,7 @@ void print_bench_table(std::ostream& out, const BenchResult& r) {
   for (const PhaseColumn& p : kPhases) row(p.label, r.*(p.spread));
   // The part of a step outside the timed phases (loops over vertices between them).
   std::vector<double> other(r.steps.size());
-  for (std::size_t i = 0; i < r.steps.size(); ++i) other[i] = r.steps[i].wall - r.steps[i].seconds.total();
+  for (std::size_t i = 0; i < r.steps.size(); ++i) other[i] = r.steps[i].other;
   row("other", spread_of(other));
   row("total per step", r.total);
   out << "\n  steps per second: " << fixed(r.steps_per_second(), 2) << " (timed steps / wall time of the loop, "

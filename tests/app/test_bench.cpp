@@ -97,6 +97,8 @@ TEST(Bench, PerStepRowsCarryTheSimulatorsCollisionCounts) {
     EXPECT_EQ(s.collisions, points[static_cast<std::size_t>(kWarmup + i)]) << "step " << s.step;
     EXPECT_EQ(s.records, records[static_cast<std::size_t>(kWarmup + i)]) << "step " << s.step;
     EXPECT_GE(s.wall, s.seconds.total() * 0.999);  // the phases lie inside the step
+    // One rank: "other" is the step's wall time minus its phases (never below 0).
+    EXPECT_DOUBLE_EQ(s.other, std::max(0.0, s.wall - s.seconds.total()));
     EXPECT_GT(s.seconds.detect, 0.0);
     most = std::max(most, s.collisions);
     counts.push_back(static_cast<double>(s.collisions));
