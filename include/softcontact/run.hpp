@@ -33,11 +33,18 @@ struct RestartPoint {
   std::string output_dir;  ///< the run's output directory, which a restart continues
 };
 
+/// How `run` and `bench` load a scene on `comm`: copies of multi-copy entries placed,
+/// measured and let go (each rank makes again only those it owns or ghosts), and the
+/// stable step's per-object frequencies shared between the ranks (docs/architecture.md,
+/// "Who holds which mesh"). The SceneLimits' other fields keep their defaults.
+SceneLimits copies_made_on_demand(MPI_Comm comm);
+
 /// Reads checkpoint `path` (a file, or a directory: its newest checkpoint) and the scene
 /// it carries, with the run's settings (steps, frames, output directory) as they were;
 /// `opt` then overrides them like a scene. Throws InputError when the checkpoint is not
-/// readable or the scene's meshes have changed since. Collective.
-Scene load_restart(MPI_Comm comm, const std::string& path, RestartPoint& restart);
+/// readable or the scene's meshes have changed since. Collective. `limits`: how the
+/// scene is loaded (copies_made_on_demand for a run).
+Scene load_restart(MPI_Comm comm, const std::string& path, RestartPoint& restart, const SceneLimits& limits = {});
 
 struct RunSummary {
   std::int64_t steps = 0;

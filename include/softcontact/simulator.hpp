@@ -68,10 +68,19 @@ public:
 
   /// Energies, momentum, contact counts, force balance and the residual penetration (the
   /// deepest surface vertex inside another body at the corrected positions, by the
-  /// independent check verify(), over the median edge length; `check` when it is the
-  /// verify() of this step already). Collective; costs a gather of the positions and a
-  /// check on rank 0, so call it per frame.
+  /// independent check of verify.hpp, over the median edge length: `check` when it is the
+  /// verify() of this step already, else residual_surface_depth()). Collective; call it
+  /// per frame.
   void measure(StepDiagnostics& d, const VerifyFrame* check = nullptr);
+
+  /// The deepest surface vertex inside another body, over the median edge: verify()'s
+  /// surface_depth() to the bit, without gathering. Each rank checks the surface vertices
+  /// of its own and its ghost objects against those objects (a body holding one of its
+  /// vertices overlaps its box, so it is owned or ghosted: each owned vertex's depth is
+  /// exact, a ghost vertex's at most its true one), then the maximum over the ranks. Its
+  /// VerifyMesh (owned and ghost objects, local order) is rebuilt after a ghost-set change
+  /// or a migration. Collective.
+  double residual_surface_depth();
 
   /// The check of `softcontact verify` (verify.hpp) on the current positions and
   /// velocities: the owned rows gathered to rank 0 and checked there, the result
@@ -171,6 +180,9 @@ private:
   std::int64_t initial_overlaps_ = 0;
   double initial_overlap_depth_ = 0;
   std::unique_ptr<VerifyMesh> verify_mesh_;  // rank 0, built by the first verify()
+  std::unique_ptr<VerifyMesh> local_verify_;  // this rank's objects and ghosts (residual_surface_depth)
+  double verify_median_ = 0;                  // the whole scene's median edge as verify.hpp takes it
+  bool verify_median_known_ = false;
   double free_fall_speed_ = 0;
 };
 

@@ -36,19 +36,6 @@ std::string nearest(const std::string& word, const std::vector<std::string>& can
 
 namespace {
 
-// `run` and `bench` hold only the meshes of the objects each rank owns or ghosts: copies
-// of multi-copy entries are made when needed (docs/architecture.md, "Who holds which mesh").
-// The ranks share the stable step's per-object frequencies (SceneLimits::sum).
-SceneLimits copies_made_on_demand(MPI_Comm comm) {
-  SceneLimits l;
-  l.hold_copy_meshes = false;
-  l.part = comm_rank(comm);
-  l.parts = comm_size(comm);
-  l.sum = [comm](std::vector<double>& v) {
-    MPI_Allreduce(MPI_IN_PLACE, v.data(), static_cast<int>(v.size()), MPI_DOUBLE, MPI_SUM, comm);
-  };
-  return l;
-}
 
 // The run's memory estimate [bytes per rank], for the message when memory runs out.
 double g_memory_estimate = 0;
@@ -384,7 +371,8 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
       usage_error("give either a scene or --restart (the checkpoint carries its scene), not both", "run");
     if (a.values.at("--restart").empty()) usage_error("--restart expects a checkpoint file or directory", "run");
   }
-  Scene s = restarting ? load_restart(comm, a.values.at("--restart"), restart) : load_scene(scene_argument(a, "run"), copies_made_on_demand(comm));
+  Scene s = restarting ? load_restart(comm, a.values.at("--restart"), restart, copies_made_on_demand(comm))
+                           : load_scene(scene_argument(a, "run"), copies_made_on_demand(comm));
   apply_overrides(s, opt);
   const int rank = comm_rank(comm), size = comm_size(comm);
   const MemoryEstimate mem = estimate_memory(s, size);

@@ -216,11 +216,25 @@ void report_in_run_checks(const Scene& scene, const VerifyMaxima& verify_max, st
 
 }  // namespace
 
-Scene load_restart(MPI_Comm comm, const std::string& path, RestartPoint& restart) {
+// `run` and `bench` hold only the meshes of the objects each rank owns or ghosts: copies
+// of multi-copy entries are made when needed (docs/architecture.md, "Who holds which mesh").
+// The ranks share the stable step's per-object frequencies (SceneLimits::sum).
+SceneLimits copies_made_on_demand(MPI_Comm comm) {
+  SceneLimits l;
+  l.hold_copy_meshes = false;
+  l.part = comm_rank(comm);
+  l.parts = comm_size(comm);
+  l.sum = [comm](std::vector<double>& v) {
+    MPI_Allreduce(MPI_IN_PLACE, v.data(), static_cast<int>(v.size()), MPI_DOUBLE, MPI_SUM, comm);
+  };
+  return l;
+}
+
+Scene load_restart(MPI_Comm comm, const std::string& path, RestartPoint& restart, const SceneLimits& limits) {
   restart.path = resolve_checkpoint(path);
   restart.info = read_checkpoint_info(comm, restart.path);
   const CheckpointInfo& info = restart.info;
-  Scene scene = load_scene_from_string(info.scene_text, info.scene_path);
+  Scene scene = load_scene_from_string(info.scene_text, info.scene_path, limits);
   checkpoint::check_against_scene(info, scene, restart.path);
   Simulation& sim = scene.sim;
   sim.steps = info.steps;

@@ -68,6 +68,7 @@ void Simulator::rebuild_ghosts(bool force) {
 
 // The World's ghost part changed: a detector for it, the force buffer sized to it.
 void Simulator::follow_ghosts() {
+  local_verify_.reset();
   drop_unneeded_meshes();
   core_->make_detector();
   core_->resize();
@@ -273,6 +274,7 @@ void Simulator::migrate(const std::vector<int>& next) {
   StepState then;
   World next_world = migrate_objects(comm_, scene_, world_, snapshot(), partition_, next, then);
   partition_ = next;
+  local_verify_.reset();
   ghosts_->drop();
   world_ = std::move(next_world);
   build_components();  // rest shapes from the initial positions, then the state
@@ -314,13 +316,58 @@ void Simulator::measure(StepDiagnostics& d, const VerifyFrame* check) {
   reduce_mechanics(comm_, scene_, world_, d, &em, core_->response().force().data());
   // Residual penetration: not the detector's own depths (a second detection pass would
   // repeat its assumptions) but the independent check's deepest surface vertex (verify.hpp).
-  const double residual = (check ? *check : verify(false)).surface_depth();
+  const double residual = check ? check->surface_depth() : residual_surface_depth();
 
   std::int64_t counts[2] = {core_->collision_stats().colliding_points, core_->collision_stats().edge_contacts}, totals[2] = {0, 0};
   MPI_Allreduce(counts, totals, 2, MPI_INT64_T, MPI_SUM, comm_);
   d.contacts = totals[0];
   d.edge_contacts = totals[1];
   d.residual_penetration = residual;
+}
+
+double Simulator::residual_surface_depth() {
+  if (!local_verify_) {
+    // The owned and ghost objects in local order, their rest positions the scene's.
+    auto m = std::make_unique<VerifyMesh>();
+    const std::size_t n = world_.n_local();
+    std::vector<double> rest(3 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto k = static_cast<std::size_t>(world_.vertex_object[i]);
+      const TetMesh& mesh = scene_.mesh(k);
+      const auto j = static_cast<std::size_t>(world_.vertex_gid[i] - world_.layout[k].vertex_begin);
+      for (std::size_t d = 0; d < 3; ++d) rest[3 * i + d] = mesh.points[3 * j + d];
+    }
+    m->vertex_object.assign(world_.vertex_object.begin(), world_.vertex_object.end());
+    m->tets.assign(world_.tets.begin(), world_.tets.end());
+    m->tet_object.assign(world_.tet_object.begin(), world_.tet_object.end());
+    m->triangles.assign(world_.triangles.begin(), world_.triangles.end());
+    m->object_fixed.resize(scene_.objects.size());
+    for (std::size_t k = 0; k < scene_.objects.size(); ++k) m->object_fixed[k] = scene_.objects[k].kinematic ? 1 : 0;
+    prepare_verify_mesh(*m, rest.data(), scene_.path);
+    if (!verify_median_known_) {
+      // The whole scene's median edge as prepare_verify_mesh takes it (the six rest edges
+      // of each tet, sqrt of the squared distance), from each rank's own tets.
+      std::vector<double> len;
+      len.reserve(6 * world_.m_owned);
+      for (std::size_t t = 0; t < world_.m_owned; ++t)
+        for (const auto& e : kTetEdges) {
+          const double* a = &rest[3 * static_cast<std::size_t>(world_.tets[4 * t + e[0]])];
+          const double* b = &rest[3 * static_cast<std::size_t>(world_.tets[4 * t + e[1]])];
+          const double x = a[0] - b[0], y = a[1] - b[1], z = a[2] - b[2];
+          len.push_back(std::sqrt(x * x + y * y + z * z));
+        }
+      std::int64_t total = 6 * static_cast<std::int64_t>(world_.global_tets);
+      verify_median_ = total > 0 ? kth_smallest(comm_, len, total / 2) : 0;
+      verify_median_known_ = true;  // every rank passes here at its first call, together
+    }
+    m->median_edge = verify_median_;
+    local_verify_ = std::move(m);
+  }
+  VerifyOptions opt;
+  opt.interior = opt.crossings = opt.self = false;
+  double deepest = verify_frame(*local_verify_, world_.x.data(), nullptr, opt).surface.max_depth;
+  MPI_Allreduce(MPI_IN_PLACE, &deepest, 1, MPI_DOUBLE, MPI_MAX, comm_);
+  return deepest / verify_median_;
 }
 
 VerifyFrame Simulator::verify(bool full) {

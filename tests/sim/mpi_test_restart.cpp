@@ -153,7 +153,8 @@ TEST(Restart, RankCountMatrixIsBitwise) {
     MPI_Barrier(MPI_COMM_WORLD);
     if (cb != MPI_COMM_NULL) {
       RestartPoint restart;
-      const Scene again = load_restart(cb, cont.string(), restart);
+      // Loaded as `run` loads it: copies made on demand, the frequencies shared.
+      const Scene again = load_restart(cb, cont.string(), restart, copies_made_on_demand(cb));
       EXPECT_EQ(restart.info.step, 40);
       EXPECT_EQ(restart.info.ranks, a);
       RunOptions ropt = opt;
