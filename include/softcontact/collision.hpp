@@ -110,6 +110,17 @@ struct RecordKey {
 /// a minimum over the same distances) and computes only the others.
 struct SelfGapCache {
   std::unordered_map<std::int32_t, double> gap;
+  /// Per scene object: an id shared by the copies of one scene entry, whose rest meshes
+  /// are rigid images of one mesh with the same numbering (-1: an object of its own). A
+  /// copy's true gap is its entry's, so only one copy per entry is computed; the others
+  /// take its gap less 1e-9 of it and 64 eps of the two copies' largest |coordinate| (the
+  /// rounding of the distances), a lower bound, which keeps the culling exact.
+  std::vector<std::int32_t> entry;
+  struct EntryGap {
+    double gap = 0;    ///< the computed gap of the entry's first copy met [m]
+    double scale = 0;  ///< that copy's largest |coordinate| at rest [m]
+  };
+  std::unordered_map<std::int32_t, EntryGap> entry_gap;
 };
 
 /// Spatial hashing (Teschner et al. 2003) and consistent penetration depth (Heidelberger

@@ -43,6 +43,10 @@ CollisionSettings collision_settings_for(const Scene& scene);
 /// The same with the scene's mean edge length already known (scene_edge_lengths).
 CollisionSettings collision_settings_for(const Scene& scene, double mean_edge);
 
+/// An empty SelfGapCache that knows which objects are copies of one scene entry (placed
+/// from one shared mesh: Placement::base), so that their self-contact gap is computed once.
+SelfGapCache self_gap_cache_for(const Scene& scene);
+
 class SerialStepper {
 public:
   /// The models' rest shapes and the contact response for `world`, whose World::x holds

@@ -27,19 +27,67 @@ double point_tet_distance(const V3& p, const V3& a, const V3& b, const V3& c, co
 
 }  // namespace
 
+namespace {
+// The largest |coordinate| of an object's reference positions [m]: the scale of the
+// rounding in its distances.
+double coordinate_scale(const ObjectInfo& o, const double* x) {
+  double m = 0;
+  for (index_t v : o.vertices)
+    for (int d = 0; d < 3; ++d) m = std::max(m, std::abs(x[3 * static_cast<std::size_t>(v) + static_cast<std::size_t>(d)]));
+  return m;
+}
+}  // namespace
+
 void SelfCulling::build(const World& w, const CollisionTopology& topo, const double* x_ref, SelfGapCache* known) {
   ref_.assign(x_ref, x_ref + 3 * w.n_local());
   const std::size_t no = topo.objects.size();
   gap_.assign(no, 0);
+  // have[k]: 0 compute, 1 known by object, 2 derived from its entry's gap (after the
+  // leaders are computed).
   std::vector<std::uint8_t> have(no, 0);
-  if (known)
+  auto entry_of = [&](std::size_t k) {
+    const auto obj = static_cast<std::size_t>(topo.objects[k].object);
+    return known && obj < known->entry.size() ? known->entry[obj] : -1;
+  };
+  if (known) {
+    std::vector<std::int32_t> led;  // entries whose gap a slot of this build computes
     for (std::size_t k = 0; k < no; ++k) {
       const auto it = known->gap.find(topo.objects[k].object);
       if (it != known->gap.end()) {
         gap_[k] = it->second;
         have[k] = 1;
+        continue;
       }
+      const std::int32_t e = entry_of(k);
+      if (e < 0) continue;
+      if (known->entry_gap.count(e) || std::find(led.begin(), led.end(), e) != led.end()) have[k] = 2;
+      else led.push_back(e);  // the lowest slot of its entry leads
     }
+  }
+  compute(w, topo, have);
+  if (!known) return;
+  // Leaders (have 0, with an entry) give their entry's gap, in slot order.
+  for (std::size_t k = 0; k < no; ++k) {
+    const std::int32_t e = entry_of(k);
+    if (have[k] == 0 && e >= 0 && !known->entry_gap.count(e))
+      known->entry_gap.emplace(e, SelfGapCache::EntryGap{gap_[k], coordinate_scale(topo.objects[k], ref_.data())});
+  }
+  // A copy of an entry is its rigid image, so its true gap is the entry's; the computed
+  // one differs by rounding, about eps times the coordinates: the copy takes the entry's
+  // less 1e-9 of it and 64 eps of both coordinate scales (a smaller gap only tests more
+  // objects; the records do not change).
+  parallel_for_dynamic(no, [&](std::size_t k, int) {
+    if (have[k] != 2) return;
+    const SelfGapCache::EntryGap& eg = known->entry_gap.at(entry_of(k));
+    const double eps = std::numeric_limits<double>::epsilon();
+    const double g = eg.gap - 1e-9 * eg.gap - 64 * eps * (eg.scale + coordinate_scale(topo.objects[k], ref_.data()));
+    gap_[k] = g > 0 ? g : 0;
+  });
+  for (std::size_t k = 0; k < no; ++k) known->gap.emplace(topo.objects[k].object, gap_[k]);
+}
+
+void SelfCulling::compute(const World& w, const CollisionTopology& topo, const std::vector<std::uint8_t>& have) {
+  const std::size_t no = topo.objects.size();
   parallel_for_dynamic(no, [&](std::size_t k, int) {
     const ObjectInfo& o = topo.objects[k];
     if (have[k] || o.tets.empty() || o.surface_vertices.empty()) return;
@@ -90,8 +138,6 @@ void SelfCulling::build(const World& w, const CollisionTopology& topo, const dou
     }
     gap_[k] = gap;
   });
-  if (known)
-    for (std::size_t k = 0; k < no; ++k) known->gap.emplace(topo.objects[k].object, gap_[k]);
 }
 
 void SelfCulling::update(const double* x, const CollisionTopology& topo, const std::uint8_t* bad_vertex,

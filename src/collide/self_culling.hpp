@@ -29,7 +29,9 @@ namespace softcontact::collide {
 class SelfCulling {
 public:
   /// Gaps from the reference positions `x_ref` (n_local,3); keeps a copy of them. The
-  /// objects found in `known` take its gap; the others' are computed and added to it.
+  /// objects found in `known` take its gap; a copy of an entry whose gap `known` holds
+  /// takes that gap less a rounding margin (SelfGapCache); the others' are computed (one
+  /// copy per entry) and added to it.
   void build(const World& w, const CollisionTopology& topo, const double* x_ref, SelfGapCache* known = nullptr);
   /// active[k] = 1 when object slot k can be in self-contact at positions x.
   void update(const double* x, const CollisionTopology& topo, const std::uint8_t* bad_vertex,
@@ -37,6 +39,9 @@ public:
   double gap(std::size_t slot) const { return gap_[slot]; }
 
 private:
+  // The gaps of the slots with have[k] == 0, computed from the reference positions.
+  void compute(const World& w, const CollisionTopology& topo, const std::vector<std::uint8_t>& have);
+
   std::vector<double> gap_;   // per slot [m]
   std::vector<double> ref_;   // (n_local,3) reference positions
 };

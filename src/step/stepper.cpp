@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <unordered_map>
 
 #include "softcontact/exchange.hpp"
 #include "softcontact/motion.hpp"
@@ -87,6 +88,18 @@ SerialStepper::SerialStepper(const Scene& scene, World& world, const CollisionSe
     : scene_(scene), world_(world), settings_(settings) {
   motion_ = std::make_unique<UnconstrainedMotion>(scene_, world_);
   contact_ = std::make_unique<ContactResponse>(scene_, world_);
+  gaps_ = self_gap_cache_for(scene_);
+}
+
+SelfGapCache self_gap_cache_for(const Scene& scene) {
+  SelfGapCache c;
+  std::unordered_map<const TetMesh*, std::int32_t> bases;
+  c.entry.assign(scene.objects.size(), -1);
+  for (std::size_t k = 0; k < scene.objects.size(); ++k) {
+    const Placement& p = scene.objects[k].placement;
+    if (p.can_remake()) c.entry[k] = bases.emplace(p.base.get(), static_cast<std::int32_t>(bases.size())).first->second;
+  }
+  return c;
 }
 
 SerialStepper::~SerialStepper() = default;

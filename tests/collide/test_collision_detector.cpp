@@ -12,6 +12,8 @@
 
 #include "collide_test_util.hpp"
 #include "collide/self_culling.hpp"
+#include "collide/triangle_queries.hpp"
+#include "softcontact/stepper.hpp"
 #include "../random_objects.hpp"
 
 using namespace softcontact;
@@ -355,6 +357,112 @@ TEST(CollisionDetector, SelfGapCacheGivesTheComputedGaps) {
   CollisionStats sa, sb;
   CollisionDetector(w, self, rest.data()).detect(w, nullptr, a, sa);
   CollisionDetector(w, self, rest.data(), &cache).detect(w, nullptr, b, sb);
+  EXPECT_GT(sa.self_collisions, 0);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].point_gid, b[k].point_gid);
+    EXPECT_EQ(a[k].triangle_gid, b[k].triangle_gid);
+    for (int d = 0; d < 3; ++d) EXPECT_EQ(a[k].depth[d], b[k].depth[d]);
+  }
+}
+
+// The smallest distance from a surface vertex of slot k to a tet of the same object that
+// shares no vertex with its star, over every such pair (no grid, no cap): the true gap
+// that the culling's gap must not exceed (inside a tet: 0; else the nearest face).
+double brute_force_gap(const World& w, const collide::CollisionTopology& topo, std::size_t k) {
+  using collide::V3;
+  auto P = [&](index_t v) { return V3{w.x[3 * static_cast<std::size_t>(v)], w.x[3 * static_cast<std::size_t>(v) + 1], w.x[3 * static_cast<std::size_t>(v) + 2]}; };
+  const collide::ObjectInfo& o = topo.objects[k];
+  double best = std::numeric_limits<double>::infinity();
+  for (index_t v : o.surface_vertices) {
+    const auto u = static_cast<std::size_t>(v);
+    std::set<index_t> star(topo.edge_to.begin() + static_cast<std::ptrdiff_t>(topo.edge_begin[u]),
+                           topo.edge_to.begin() + static_cast<std::ptrdiff_t>(topo.edge_begin[u + 1]));
+    star.insert(v);
+    for (index_t t : o.tets) {
+      const index_t* c = &w.tets[4 * static_cast<std::size_t>(t)];
+      if (star.count(c[0]) || star.count(c[1]) || star.count(c[2]) || star.count(c[3])) continue;
+      const V3 p = P(v), a = P(c[0]), b = P(c[1]), cc = P(c[2]), d = P(c[3]);
+      const double vol = collide::orient(a, b, cc, d);
+      const double s0 = collide::orient(p, b, cc, d), s1 = collide::orient(a, p, cc, d), s2 = collide::orient(a, b, p, d),
+                   s3 = collide::orient(a, b, cc, p);
+      if (s0 * vol >= 0 && s1 * vol >= 0 && s2 * vol >= 0 && s3 * vol >= 0) return 0;
+      const V3 f[4][3] = {{b, cc, d}, {a, cc, d}, {a, b, d}, {a, b, cc}};
+      std::array<double, 3> bary{};
+      for (const auto& tri : f) {
+        const V3 q = collide::closest_point_on_triangle(p, tri[0], tri[1], tri[2], bary);
+        const double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
+        best = std::min(best, std::sqrt(dx * dx + dy * dy + dz * dz));
+      }
+    }
+  }
+  return best;
+}
+
+// The copies of one scene entry share its gap (SelfGapCache::entry): a scene of 6 grid
+// copies and 8 randomly rotated copies of a box, and a single box. One copy per entry is
+// computed; every other copy takes that gap less a rounding margin (1e-9 of it and more).
+// Each gap, computed or taken, is at most the copy's true gap by brute force (no grid, no
+// cap; the copies' true gaps are equal, being rigid images, up to rounding). A copy's own
+// capped gap can differ from its entry's (the cap, half the largest tet extent along the
+// axes, turns with the copy), so it is not the reference. Self-contact with the shared
+// gaps finds the records of a detector without them.
+TEST(CollisionDetector, CopiesOfAnEntryShareItsGap) {
+  const Scene scene = load_scene_from_string(std::string(kMaterials) + R"(objects:
+  - name: grid
+    material: m
+    primitive: {type: box, size: [0.3, 0.2, 0.1], cells: [3, 2, 2]}
+    instances: {grid: {count: [3, 2, 1], spacing: [0.5, 0.5, 0]}}
+  - name: tumbled
+    material: m
+    primitive: {type: box, size: [0.3, 0.2, 0.1], cells: [3, 2, 2]}
+    instances: {random: {count: 8, region: {min: [0, 0, 1], max: [3, 3, 4]}, seed: 5, rotate: true}}
+  - name: single
+    material: m
+    primitive: {type: box, size: [0.3, 0.2, 0.1], cells: [3, 2, 2]}
+    transform: {translate: [5, 5, 5]}
+)", "test.yaml");
+  ASSERT_EQ(scene.objects.size(), 15u);
+  const World w = build_world(scene, block_partition(scene, 1), 0);
+  const collide::CollisionTopology topo = collide::build_collision_topology(w);
+  SelfGapCache shared = self_gap_cache_for(scene);
+  EXPECT_EQ(shared.entry[0], shared.entry[5]);
+  EXPECT_NE(shared.entry[0], shared.entry[6]);
+  EXPECT_EQ(shared.entry[6], shared.entry[13]);
+  EXPECT_EQ(shared.entry[14], -1);
+  collide::SelfCulling own, from_entry;
+  own.build(w, topo, w.x.data());
+  from_entry.build(w, topo, w.x.data(), &shared);
+  EXPECT_EQ(shared.entry_gap.size(), 2u) << "one computed copy per entry";
+  std::vector<double> slot_of(15, -1);
+  for (std::size_t k = 0; k < topo.objects.size(); ++k) slot_of[static_cast<std::size_t>(topo.objects[k].object)] = static_cast<double>(k);
+  for (std::size_t k = 0; k < topo.objects.size(); ++k) {
+    const std::int32_t obj = topo.objects[k].object;
+    const double truth = brute_force_gap(w, topo, k);
+    ASSERT_GT(own.gap(k), 0) << "object " << obj;
+    EXPECT_LE(own.gap(k), truth) << "object " << obj;
+    EXPECT_LE(from_entry.gap(k), truth) << "object " << obj;
+    if (obj == 0 || obj == 6 || obj == 14) {
+      EXPECT_EQ(from_entry.gap(k), own.gap(k)) << "object " << obj << " is computed";
+    } else {
+      const double lead = from_entry.gap(static_cast<std::size_t>(slot_of[obj < 6 ? 0 : 6]));
+      EXPECT_LT(from_entry.gap(k), lead) << "object " << obj;
+      EXPECT_GT(from_entry.gap(k), lead * (1 - 1e-8)) << "object " << obj;
+    }
+  }
+  // Every vertex jittered by up to 0.15 (beyond the cells, so bodies fold): records with the shared
+  // gaps equal those without the cache.
+  World j = w;
+  std::mt19937_64 g(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (double& x : j.x) x += 0.15 * u(g);
+  CollisionSettings self;
+  self.self_collisions = true;
+  std::vector<Collision> a, b;
+  CollisionStats sa, sb;
+  SelfGapCache again = self_gap_cache_for(scene);
+  CollisionDetector(j, self, w.x.data()).detect(j, nullptr, a, sa);
+  CollisionDetector(j, self, w.x.data(), &again).detect(j, nullptr, b, sb);
   EXPECT_GT(sa.self_collisions, 0);
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t k = 0; k < a.size(); ++k) {
