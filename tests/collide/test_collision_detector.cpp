@@ -21,6 +21,32 @@ using namespace softcontact::test;
 
 namespace {
 
+// The same records, bitwise: keys and penetration vectors.
+void expect_same_records(const std::vector<Collision>& a, const std::vector<Collision>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].point_gid, b[k].point_gid) << "record " << k;
+    EXPECT_EQ(a[k].triangle_gid, b[k].triangle_gid) << "record " << k;
+    for (int d = 0; d < 3; ++d) EXPECT_EQ(a[k].depth[d], b[k].depth[d]) << "record " << k;
+  }
+}
+
+// Every coordinate of `w` jittered by up to `amp` (seeded): self-contact with a detector
+// given `cache` finds the records of one without it, bitwise, and finds some.
+void expect_cache_changes_no_record(World w, const double* rest, double amp, std::uint64_t seed, SelfGapCache cache) {
+  std::mt19937_64 g(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (double& x : w.x) x += amp * u(g);
+  CollisionSettings self;
+  self.self_collisions = true;
+  std::vector<Collision> a, b;
+  CollisionStats sa, sb;
+  CollisionDetector(w, self, rest).detect(w, nullptr, a, sa);
+  CollisionDetector(w, self, rest, &cache).detect(w, nullptr, b, sb);
+  EXPECT_GT(sa.self_collisions, 0);
+  expect_same_records(a, b);
+}
+
 // base: z in [-0.5, 0.5], cells 0.25; block: 1 x 1 x 0.5 with cells 0.25, its bottom at
 // 0.5 - depth, shifted sideways by (sx, sy) so that its footprint stays inside the
 // base's top face away from the base's edges (there the smoothed normals tilt).
@@ -310,12 +336,8 @@ TEST(CollisionDetector, SelfCullingChangesNoRecord) {
     EXPECT_LT(sa.self_objects, sb.self_objects) << "seed " << seed;  // some were culled
     EXPECT_GT(sa.self_collisions, 0) << "seed " << seed;  // measured: 34, 21, 29
     EXPECT_EQ(sa.self_collisions, sb.self_collisions) << "seed " << seed;
-    ASSERT_EQ(a.size(), b.size()) << "seed " << seed;
-    for (std::size_t k = 0; k < a.size(); ++k) {
-      EXPECT_EQ(a[k].point_gid, b[k].point_gid);
-      EXPECT_EQ(a[k].triangle_gid, b[k].triangle_gid);
-      for (int d = 0; d < 3; ++d) EXPECT_EQ(a[k].depth[d], b[k].depth[d]);
-    }
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    expect_same_records(a, b);
   }
 }
 
@@ -348,22 +370,7 @@ TEST(CollisionDetector, SelfGapCacheGivesTheComputedGaps) {
 
   // Jittered hard (self-contact records exist): a detector with the filled cache finds
   // the records of one without it, bitwise.
-  std::mt19937_64 g(21);
-  std::uniform_real_distribution<double> u(-1, 1);
-  for (double& x : w.x) x += 0.2 * u(g);
-  CollisionSettings self;
-  self.self_collisions = true;
-  std::vector<Collision> a, b;
-  CollisionStats sa, sb;
-  CollisionDetector(w, self, rest.data()).detect(w, nullptr, a, sa);
-  CollisionDetector(w, self, rest.data(), &cache).detect(w, nullptr, b, sb);
-  EXPECT_GT(sa.self_collisions, 0);
-  ASSERT_EQ(a.size(), b.size());
-  for (std::size_t k = 0; k < a.size(); ++k) {
-    EXPECT_EQ(a[k].point_gid, b[k].point_gid);
-    EXPECT_EQ(a[k].triangle_gid, b[k].triangle_gid);
-    for (int d = 0; d < 3; ++d) EXPECT_EQ(a[k].depth[d], b[k].depth[d]);
-  }
+  expect_cache_changes_no_record(w, rest.data(), 0.2, 21, cache);
 }
 
 // The smallest distance from a surface vertex of slot k to a tet of the same object that
@@ -450,26 +457,9 @@ TEST(CollisionDetector, CopiesOfAnEntryShareItsGap) {
       EXPECT_GT(from_entry.gap(k), lead * (1 - 1e-8)) << "object " << obj;
     }
   }
-  // Every vertex jittered by up to 0.15 (beyond the cells, so bodies fold): records with the shared
-  // gaps equal those without the cache.
-  World j = w;
-  std::mt19937_64 g(3);
-  std::uniform_real_distribution<double> u(-1, 1);
-  for (double& x : j.x) x += 0.15 * u(g);
-  CollisionSettings self;
-  self.self_collisions = true;
-  std::vector<Collision> a, b;
-  CollisionStats sa, sb;
-  SelfGapCache again = self_gap_cache_for(scene);
-  CollisionDetector(j, self, w.x.data()).detect(j, nullptr, a, sa);
-  CollisionDetector(j, self, w.x.data(), &again).detect(j, nullptr, b, sb);
-  EXPECT_GT(sa.self_collisions, 0);
-  ASSERT_EQ(a.size(), b.size());
-  for (std::size_t k = 0; k < a.size(); ++k) {
-    EXPECT_EQ(a[k].point_gid, b[k].point_gid);
-    EXPECT_EQ(a[k].triangle_gid, b[k].triangle_gid);
-    for (int d = 0; d < 3; ++d) EXPECT_EQ(a[k].depth[d], b[k].depth[d]);
-  }
+  // Every vertex jittered by up to 0.15 (beyond the cells, so bodies fold): records with
+  // the shared gaps equal those without the cache.
+  expect_cache_changes_no_record(w, w.x.data(), 0.15, 3, self_gap_cache_for(scene));
 }
 
 // The narrow phase's candidates kept across steps (CollisionSettings::point_skin) give
