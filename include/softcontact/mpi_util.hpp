@@ -28,4 +28,8 @@ inline int comm_size(MPI_Comm comm) {
 /// requires 0 <= k < the total count.
 double kth_smallest(MPI_Comm comm, const std::vector<double>& values, std::int64_t k);
 
+/// Every rank's `mine`, concatenated in rank order, on every rank (MPI_Allgatherv; counts
+/// first by MPI_Allgather). Collective. The total must fit an int.
+std::vector<double> allgather_doubles(MPI_Comm comm, const std::vector<double>& mine);
+
 }  // namespace softcontact

@@ -242,6 +242,11 @@ struct SceneLimits {
   int part = 0;
   int parts = 1;
   std::function<void(std::vector<double>&)> sum;
+  /// How ranks share random placement (the copies of `instances: random` entries): each
+  /// part places the independent groups of entries given to it, and `gather` returns
+  /// every part's vector, concatenated in part order (an MPI_Allgatherv), so that every
+  /// rank has every copy's placement, made exactly as on one rank. Unset: all placed here.
+  std::function<std::vector<double>(const std::vector<double>&)> gather;
 };
 
 /// Reads, validates and instantiates a scene. Mesh paths are relative to the scene file.

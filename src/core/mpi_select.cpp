@@ -1,7 +1,9 @@
 // Exact selection over ranks (mpi_util.hpp): bisection on the bit patterns of
-// non-negative doubles, which order like the numbers themselves.
+// non-negative doubles, which order like the numbers themselves. And an all-gather of
+// doubles of any count per rank.
 #include <cstring>
 #include <limits>
+#include <stdexcept>
 
 #include "softcontact/mpi_util.hpp"
 
@@ -34,6 +36,28 @@ double kth_smallest(MPI_Comm comm, const std::vector<double>& values, std::int64
   double x = 0;
   std::memcpy(&x, &lo, sizeof x);
   return x;
+}
+
+std::vector<double> allgather_doubles(MPI_Comm comm, const std::vector<double>& mine) {
+  const int n = comm_size(comm);
+  // The counts as 64-bit integers, so that every rank sees a total too large for MPI's int
+  // counts and fails alike, instead of one rank leaving the collective.
+  const std::int64_t count = static_cast<std::int64_t>(mine.size());
+  std::vector<std::int64_t> counts(static_cast<std::size_t>(n));
+  MPI_Allgather(&count, 1, MPI_INT64_T, counts.data(), 1, MPI_INT64_T, comm);
+  std::vector<int> sizes(static_cast<std::size_t>(n)), displs(static_cast<std::size_t>(n));
+  std::int64_t total = 0;
+  for (std::size_t r = 0; r < counts.size(); ++r) {
+    displs[r] = static_cast<int>(total);
+    sizes[r] = static_cast<int>(counts[r]);
+    total += counts[r];
+    if (total > std::numeric_limits<int>::max())
+      throw std::length_error("allgather_doubles: more than 2^31 - 1 values in all ranks together");
+  }
+  std::vector<double> all(static_cast<std::size_t>(total));
+  MPI_Allgatherv(mine.data(), static_cast<int>(count), MPI_DOUBLE, all.data(), sizes.data(), displs.data(), MPI_DOUBLE,
+                 comm);
+  return all;
 }
 
 }  // namespace softcontact

@@ -202,7 +202,8 @@ Mat3 rotation_axis_angle(const Vec3& axis, double deg) {
           z * x * C - y * s, z * y * C + x * s, c + z * z * C};
 }
 
-void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool hold_meshes) {
+void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool hold_meshes,
+                 std::vector<PendingRandom>* pending) {
   if (spec.instancing == EntrySpec::Instancing::single) {
     // The object is the entry: nothing to share, no recipe (Placement::Kind::kept).
     objects.push_back(make_object(spec, transformed(spec.mesh, spec.scale, spec.rotation, spec.translate), spec.name));
@@ -218,7 +219,6 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool 
   copy_shape.tets = base.num_tets();
   copy_shape.triangles = hold_meshes ? 0 : extract_surface(base).num_triangles();
   const ObjectShape* shape = hold_meshes ? nullptr : &copy_shape;
-  const Mat3 identity{1, 0, 0, 0, 1, 0, 0, 0, 1};
   switch (spec.instancing) {
     case EntrySpec::Instancing::single:
       return;
@@ -237,26 +237,9 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool 
       return;
     }
     case EntrySpec::Instancing::random: {
-      // Rejection sampling of centres (and rotations), deterministic for a given seed: a
-      // copy's bounding sphere must not reach into the axis-aligned box of anything
-      // placed so far (boxes rather than spheres for those: the bounding sphere of a
-      // wide floor plate would cover the whole region above it).
+      // The copies take their slots now and are placed by place_random: at once here, or
+      // after every entry is read when the caller shares the placement over ranks.
       const Sphere own = bounding_sphere(base);
-      BoxIndex placed(spec.region.lo, 2 * own.r);
-      // A copy's ball lies in the region (its centre keeps r from every side), so a box
-      // farther than r from the region cannot be reached by one (it is more than 2r from
-      // every centre, far beyond rounding): only the others are indexed. The answers are
-      // those of indexing every earlier object, and a scene of many regions (the weak-
-      // scaling containers) no longer indexes every earlier object once per entry.
-      Box near = spec.region;
-      for (int d = 0; d < 3; ++d) {
-        near.lo[d] -= own.r;
-        near.hi[d] += own.r;
-      }
-      for (const auto& o : objects) {
-        const Box b = o.shape ? o.shape->box : bounding_box(o.mesh);
-        if (b.overlaps(near)) placed.add(b);
-      }
       for (int d = 0; d < 3; ++d)
         if (spec.region.hi[d] - spec.region.lo[d] < 2 * own.r) {
           std::ostringstream s;
@@ -264,42 +247,201 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool 
             << " m) along axis " << "xyz"[d];
           throw InputError(s.str());
         }
-      std::mt19937_64 gen(spec.seed);
-      // At most 1000 attempts per copy on average, and 100000 for one copy: a region that
-      // is full ends the placement at once instead of after up to 10^9 attempts.
-      const std::int64_t max_attempts = 1000 + 1000 * static_cast<std::int64_t>(spec.random_count);
-      constexpr std::int64_t kMaxAttemptsPerCopy = 100000;
-      std::int64_t attempts = 0;
+      PendingRandom entry;
+      entry.spec = spec;
+      entry.spec.mesh = TetMesh();
+      entry.base = shared;
+      entry.centre = own.c;
+      entry.radius = own.r;
+      entry.first = objects.size();
       for (int k = 0; k < spec.random_count; ++k) {
-        for (std::int64_t tries = 1;; ++tries) {
-          if (++attempts > max_attempts || tries > kMaxAttemptsPerCopy) {
-            std::ostringstream s;
-            s << "could place only " << k << " of " << spec.random_count
-              << " non-overlapping copies in 'random.region' after " << attempts - 1 << " attempts ("
-              << tries - 1 << " for copy " << k + 1 << "); enlarge the region or lower the count";
-            throw InputError(s.str());
-          }
-          Vec3 c;
-          for (int d = 0; d < 3; ++d)
-            c[d] = spec.region.lo[d] + own.r + unit(gen) * (spec.region.hi[d] - spec.region.lo[d] - 2 * own.r);
-          const Mat3 R = spec.random_rotate ? random_rotation(gen) : identity;
-          if (placed.reaches(c, own.r)) continue;
-          // rotate about the copy's own centre, then move the centre to c
-          Placement p;
-          p.kind = Placement::Kind::about_centre;
-          p.base = shared;
-          p.rotation = R;
-          p.centre = own.c;
-          p.offset = c;
-          TetMesh m = p.place();
-          placed.add(bounding_box(m));
-          objects.push_back(make_object(spec, std::move(m), spec.name + "[" + std::to_string(k) + "]", std::move(p), shape));
-          break;
-        }
+        Placement p;
+        p.kind = Placement::Kind::about_centre;
+        p.base = shared;
+        p.centre = own.c;
+        // a slot: counts and an empty box until placed (the box of a mesh-holding copy
+        // is dropped again when it is placed)
+        SceneObject o = make_object(spec, TetMesh(), spec.name + "[" + std::to_string(k) + "]", std::move(p));
+        o.shape = copy_shape;
+        o.shape->box = Box::none();
+        objects.push_back(std::move(o));
       }
+      if (pending) {
+        pending->push_back(std::move(entry));
+        return;
+      }
+      std::vector<PendingRandom> one{std::move(entry)};
+      if (const auto failed = place_random(one, objects, hold_meshes, SceneLimits{})) throw InputError(failed->detail);
       return;
     }
   }
+}
+
+namespace {
+
+/// Doubles per placed copy in the records that place_random shares: rotation (9), offset
+/// (3), box (6). Each entry's record starts with kEntryHeader doubles: its position in
+/// `pending`, copies placed, failed (0 or 1), attempts in all and for the copy that failed.
+constexpr std::size_t kCopyDoubles = 18, kEntryHeader = 5;
+
+/// Rejection sampling of one pending entry's centres (and rotations), deterministic for
+/// its seed: a copy's bounding sphere must not reach into the axis-aligned box of
+/// anything placed before it (boxes rather than spheres for those: the bounding sphere of
+/// a wide floor plate would cover the whole region above it). Appends the entry's record
+/// to `out` and fills its slots' boxes (the later entries of its group index them).
+/// Returns false when the region is full.
+bool place_entry(std::size_t position, const PendingRandom& e, std::vector<SceneObject>& objects, std::vector<double>& out) {
+  const EntrySpec& spec = e.spec;
+  const double r = e.radius;
+  BoxIndex placed(spec.region.lo, 2 * r);
+  // A copy's ball lies in the region (its centre keeps r from every side), so a box
+  // farther than r from the region cannot be reached by one (it is more than 2r from
+  // every centre, far beyond rounding): only the others before the entry are indexed.
+  // The answers are those of indexing every earlier object; slots not placed yet hold
+  // an empty box, and by place_random's grouping none of them can come near.
+  Box near = spec.region;
+  for (int d = 0; d < 3; ++d) {
+    near.lo[d] -= r;
+    near.hi[d] += r;
+  }
+  for (std::size_t i = 0; i < e.first; ++i) {
+    const SceneObject& o = objects[i];
+    const Box b = o.shape ? o.shape->box : bounding_box(o.mesh);
+    if (b.overlaps(near)) placed.add(b);
+  }
+  const std::size_t header = out.size();
+  out.insert(out.end(), {static_cast<double>(position), 0, 0, 0, 0});
+  const Mat3 identity{1, 0, 0, 0, 1, 0, 0, 0, 1};
+  std::mt19937_64 gen(spec.seed);
+  // At most 1000 attempts per copy on average, and 100000 for one copy: a region that
+  // is full ends the placement at once instead of after up to 10^9 attempts.
+  const std::int64_t max_attempts = 1000 + 1000 * static_cast<std::int64_t>(spec.random_count);
+  constexpr std::int64_t kMaxAttemptsPerCopy = 100000;
+  std::int64_t attempts = 0;
+  for (int k = 0; k < spec.random_count; ++k) {
+    for (std::int64_t tries = 1;; ++tries) {
+      if (++attempts > max_attempts || tries > kMaxAttemptsPerCopy) {
+        out[header + 1] = k;
+        out[header + 2] = 1;
+        out[header + 3] = static_cast<double>(attempts - 1);
+        out[header + 4] = static_cast<double>(tries - 1);
+        return false;
+      }
+      Vec3 c;
+      for (int d = 0; d < 3; ++d) c[d] = spec.region.lo[d] + r + unit(gen) * (spec.region.hi[d] - spec.region.lo[d] - 2 * r);
+      const Mat3 R = spec.random_rotate ? random_rotation(gen) : identity;
+      if (placed.reaches(c, r)) continue;
+      // rotate about the copy's own centre, then move the centre to c
+      SceneObject& o = objects[e.first + static_cast<std::size_t>(k)];
+      o.placement.rotation = R;
+      o.placement.offset = c;
+      const TetMesh m = o.placement.place();
+      placed.add(bounding_box(m));
+      Box shape_box = Box::none();  // as make_object measures a copy's shape
+      for (std::size_t i = 0; i < m.num_vertices(); ++i) add_point(shape_box, &m.points[3 * i]);
+      o.shape->box = shape_box;
+      out.insert(out.end(), R.begin(), R.end());
+      out.insert(out.end(), c.begin(), c.end());
+      out.insert(out.end(), shape_box.lo.begin(), shape_box.lo.end());
+      out.insert(out.end(), shape_box.hi.begin(), shape_box.hi.end());
+      break;
+    }
+  }
+  out[header + 1] = spec.random_count;
+  return true;
+}
+
+std::size_t find_root(std::vector<std::size_t>& parent, std::size_t i) {
+  while (parent[i] != i) i = parent[i] = parent[parent[i]];
+  return i;
+}
+
+}  // namespace
+
+std::optional<PlacementFailure> place_random(std::vector<PendingRandom>& pending, std::vector<SceneObject>& objects,
+                                             bool hold_meshes, const SceneLimits& limits) {
+  const std::size_t n = pending.size();
+  if (n == 0) return std::nullopt;
+  // Groups: entries whose regions, each widened by its copy radius, overlap (a sweep
+  // along x over the widened regions, then union-find). A copy's box lies in its ball,
+  // which lies in its region to rounding, so no box of one group comes within a copy
+  // radius of another group's region.
+  std::vector<Box> reach(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    reach[i] = pending[i].spec.region;
+    for (int d = 0; d < 3; ++d) {
+      reach[i].lo[d] -= pending[i].radius;
+      reach[i].hi[d] += pending[i].radius;
+    }
+  }
+  std::vector<std::size_t> by_x(n), parent(n);
+  for (std::size_t i = 0; i < n; ++i) by_x[i] = parent[i] = i;
+  std::sort(by_x.begin(), by_x.end(), [&](std::size_t a, std::size_t b) {
+    return reach[a].lo[0] < reach[b].lo[0] || (reach[a].lo[0] == reach[b].lo[0] && a < b);
+  });
+  for (std::size_t a = 0; a < n; ++a)
+    for (std::size_t b = a + 1; b < n && reach[by_x[b]].lo[0] <= reach[by_x[a]].hi[0]; ++b)
+      if (reach[by_x[a]].overlaps(reach[by_x[b]])) parent[find_root(parent, by_x[a])] = find_root(parent, by_x[b]);
+  std::vector<std::vector<std::size_t>> groups;  // entries in scene order, groups by their first entry
+  std::vector<std::size_t> group_of_root(n, n);
+  for (std::size_t i = 0; i < n; ++i) {
+    std::size_t& g = group_of_root[find_root(parent, i)];
+    if (g == n) {
+      g = groups.size();
+      groups.emplace_back();
+    }
+    groups[g].push_back(i);
+  }
+
+  // Groups to parts: the most copies first (ties: the earlier group), each to the part
+  // with the fewest copies so far (ties: the lower part). Every part computes the same.
+  const bool shared = limits.parts > 1 && limits.gather;
+  const int parts = shared ? limits.parts : 1, part = shared ? limits.part : 0;
+  std::vector<double> copies(groups.size(), 0);
+  for (std::size_t g = 0; g < groups.size(); ++g)
+    for (std::size_t i : groups[g]) copies[g] += pending[i].spec.random_count;
+  std::vector<std::size_t> order(groups.size());
+  for (std::size_t g = 0; g < order.size(); ++g) order[g] = g;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return copies[a] > copies[b]; });
+  std::vector<double> load(static_cast<std::size_t>(parts), 0);
+  std::vector<double> mine;
+  for (std::size_t g : order) {
+    const std::size_t p = static_cast<std::size_t>(std::min_element(load.begin(), load.end()) - load.begin());
+    load[p] += copies[g];
+    if (static_cast<int>(p) != part) continue;
+    for (std::size_t i : groups[g])
+      if (!place_entry(i, pending[i], objects, mine)) break;  // the rest of the group cannot matter
+  }
+  const std::vector<double> all = shared ? limits.gather(mine) : mine;
+
+  // Every copy from the records: the same rotation, offset and box on every part.
+  std::optional<PlacementFailure> failed;
+  for (std::size_t at = 0; at < all.size();) {
+    const std::size_t i = static_cast<std::size_t>(all[at]);
+    const int placed = static_cast<int>(all[at + 1]);
+    const PendingRandom& e = pending[i];
+    if (all[at + 2] != 0 && (!failed || i < failed->entry)) {
+      std::ostringstream s;
+      s << "could place only " << placed << " of " << e.spec.random_count
+        << " non-overlapping copies in 'random.region' after " << static_cast<std::int64_t>(all[at + 3]) << " attempts ("
+        << static_cast<std::int64_t>(all[at + 4]) << " for copy " << placed + 1 << "); enlarge the region or lower the count";
+      failed = PlacementFailure{i, s.str()};
+    }
+    at += kEntryHeader;
+    for (int k = 0; k < placed; ++k, at += kCopyDoubles) {
+      SceneObject& o = objects[e.first + static_cast<std::size_t>(k)];
+      std::copy_n(&all[at], 9, o.placement.rotation.begin());
+      std::copy_n(&all[at + 9], 3, o.placement.offset.begin());
+      if (hold_meshes) {
+        o.mesh = o.placement.place();
+        o.shape.reset();
+      } else {
+        std::copy_n(&all[at + 12], 3, o.shape->box.lo.begin());
+        std::copy_n(&all[at + 15], 3, o.shape->box.hi.begin());
+      }
+    }
+  }
+  return failed;
 }
 
 }  // namespace softcontact

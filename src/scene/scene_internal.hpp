@@ -3,6 +3,8 @@
 // instantiated into objects.
 #include <array>
 #include <cstdint>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -38,12 +40,44 @@ struct EntrySpec {
   bool random_rotate = false;
 };
 
+/// A random entry whose copies have their slots in the scene's objects, [first, first +
+/// spec.random_count), but are not placed yet: place_random places them. The copies
+/// share `base`, the entry's transformed mesh; its bounding sphere is (centre, radius).
+struct PendingRandom {
+  EntrySpec spec;  ///< without its mesh (the copies use `base`)
+  std::shared_ptr<const TetMesh> base;
+  Vec3 centre{};
+  double radius = 0;
+  std::size_t first = 0;
+};
+
 /// Places the entry's copies (x' = R (S x) + t, then the instance offset) and appends
 /// them to `objects`. Random placement rejects copies whose bounding sphere overlaps an
 /// object placed before; throws InputError(detail) when the region is too small.
 /// With hold_meshes false, the copies of a grid or random entry keep only their shape and
 /// placement (SceneObject::mesh empty; Scene::mesh makes it).
-void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool hold_meshes = true);
+/// With `pending`, a random entry's copies only take their slots (names, counts, the
+/// recipe without rotation and offset) and the entry joins `pending`, for place_random.
+void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool hold_meshes = true,
+                 std::vector<PendingRandom>* pending = nullptr);
+
+/// A random entry that could not be placed: its position in `pending`, and why.
+struct PlacementFailure {
+  std::size_t entry = 0;
+  std::string detail;
+};
+
+/// Places the copies of the pending random entries, exactly as one by one in scene order.
+/// An entry's placement depends only on the objects before it that come within one copy
+/// radius of its region, so entries whose regions (each widened by its copy radius) do
+/// not overlap, directly or through others, are independent: these groups are shared out
+/// over limits.parts (the most copies first, each to the part with the fewest so far),
+/// each part places its groups, and limits.gather gives every part every copy's rotation,
+/// offset and box (18 doubles), the same to the bit as one part placing all. Without
+/// limits.gather (or with one part) every group is placed here. Returns the first entry,
+/// in scene order, that does not fit its region.
+std::optional<PlacementFailure> place_random(std::vector<PendingRandom>& pending, std::vector<SceneObject>& objects,
+                                             bool hold_meshes, const SceneLimits& limits);
 
 namespace detail {
 std::size_t edit_distance(const std::string& a, const std::string& b);

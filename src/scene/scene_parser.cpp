@@ -518,6 +518,8 @@ void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const 
   SizeBudget budget(limits);
   if (!list.IsSequence() || list.size() == 0) r.fail(list, "'objects' must be a non-empty list of objects");
   std::map<std::string, std::pair<TetMesh, MeshReport>> mesh_cache;  // a file instanced many times is read once
+  std::vector<PendingRandom> pending;  // random entries, placed after the loop
+  std::vector<YAML::Node> pending_nodes;
   int entry = 0;
   for (const auto& n : list) {
     ++entry;
@@ -638,12 +640,19 @@ void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const 
     budget.check(r, n, where, copies, nv, nt);
     budget.add(copies, nv, nt);
     try {
-      instantiate(spec, scene.objects, limits.hold_copy_meshes);
+      const std::size_t before = pending.size();
+      instantiate(spec, scene.objects, limits.hold_copy_meshes, &pending);
+      if (pending.size() > before) pending_nodes.push_back(n);
     } catch (const InputError& e) {
       if (!e.file().empty()) throw;
       r.fail(n, e.detail());
     }
   }
+  // The random copies, once every entry is read: the ranks share the placement of
+  // independent regions (SceneLimits::gather). A region too full to place its copies is
+  // reported at its entry, the first in scene order, as if placed one by one.
+  if (const auto failed = place_random(pending, scene.objects, limits.hold_copy_meshes, limits))
+    r.fail(pending_nodes[failed->entry], failed->detail);
 }
 
 /// Highest tet frequency of one object (tet_max_frequency); NaN when any tet's is NaN, so

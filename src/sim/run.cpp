@@ -227,6 +227,7 @@ SceneLimits copies_made_on_demand(MPI_Comm comm) {
   l.sum = [comm](std::vector<double>& v) {
     MPI_Allreduce(MPI_IN_PLACE, v.data(), static_cast<int>(v.size()), MPI_DOUBLE, MPI_SUM, comm);
   };
+  l.gather = [comm](const std::vector<double>& mine) { return allgather_doubles(comm, mine); };
   return l;
 }
 

@@ -3,8 +3,11 @@
 // scene loaded without its copies' meshes knows every object's counts and box all the same.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
+#include <vector>
 
+#include "softcontact/error.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/surface.hpp"
 
@@ -120,5 +123,142 @@ TEST(SceneObjects, DropMeshesKeepsShapesAndWhatCannotBeRemade) {
     EXPECT_EQ(held.shape(k).tets, fresh.objects[k].mesh.num_tets());
     EXPECT_EQ(held.mesh(k).points, fresh.objects[k].mesh.points) << k;
     EXPECT_EQ(held.surface(k).triangles, extract_surface(fresh.objects[k].mesh).triangles) << k;
+  }
+}
+
+namespace {
+
+// Four random entries: two in one region (the second must avoid the first's copies, so
+// the two are one group), two in regions of their own, and a grid and a floor between.
+const std::string kRegions = R"(simulation:
+  dt: auto
+  steps: 10
+materials:
+  - {name: rubber, model: corotational, young: 1.0e5, poisson: 0.3, density: 1000}
+objects:
+  - name: floor
+    material: rubber
+    primitive: {type: plate, size: [9, 3], thickness: 0.1, cells: [9, 3]}
+    transform: {translate: [0, 0, -0.05]}
+    kinematic: true
+  - name: a
+    material: rubber
+    primitive: {type: sphere, radius: 0.1, resolution: 3}
+    instances: {random: {count: 15, seed: 3, rotate: true, region: {min: [-4.5, -1, 0], max: [-2.5, 1, 1]}}}
+  - name: grid
+    material: rubber
+    primitive: {type: box, size: [0.2, 0.2, 0.2], cells: [2, 2, 2]}
+    transform: {translate: [-3.5, 0, 0.3]}
+    instances: {grid: {count: [2, 2, 1], spacing: [0.3, 0.3, 0]}}
+  - name: b
+    material: rubber
+    primitive: {type: box, size: [0.15, 0.1, 0.2], cells: [1, 1, 2]}
+    instances: {random: {count: 12, seed: 4, rotate: true, region: {min: [-4.5, -1, 0], max: [-2.5, 1, 1]}}}
+  - name: c
+    material: rubber
+    primitive: {type: sphere, radius: 0.1, resolution: 3}
+    instances: {random: {count: 10, seed: 5, rotate: true, region: {min: [0, -1, 0], max: [1, 1, 0.6]}}}
+  - name: d
+    material: rubber
+    primitive: {type: sphere, radius: 0.12, resolution: 3}
+    instances: {random: {count: 8, seed: 6, region: {min: [3, -1, 0], max: [4, 1, 0.6]}}}
+)";
+
+// What each of `parts` ranks places of `text` (its SceneLimits::gather argument): every
+// part loaded once, its gather returning only its own records.
+std::vector<std::vector<double>> placed_by_each(const std::string& text, int parts) {
+  std::vector<std::vector<double>> mine(static_cast<std::size_t>(parts));
+  for (int p = 0; p < parts; ++p) {
+    SceneLimits l = lean();
+    l.part = p;
+    l.parts = parts;
+    l.gather = [&mine, p](const std::vector<double>& v) {
+      mine[static_cast<std::size_t>(p)] = v;
+      return v;
+    };
+    try {
+      (void)load_scene_from_string(text, "scene.yaml", l);
+    } catch (const InputError&) {
+      // a part whose own region is full: the real error comes with every part's records
+    }
+  }
+  return mine;
+}
+
+// Part p of `parts` loading `text`, its gather giving what MPI_Allgatherv would: every
+// part's records in part order.
+Scene load_as_part(const std::string& text, int p, int parts, const std::vector<std::vector<double>>& mine) {
+  SceneLimits l = lean();
+  l.part = p;
+  l.parts = parts;
+  l.gather = [&mine, p](const std::vector<double>& v) {
+    EXPECT_EQ(v, mine[static_cast<std::size_t>(p)]) << "a part places the same again";
+    std::vector<double> all;
+    for (const auto& m : mine) all.insert(all.end(), m.begin(), m.end());
+    return all;
+  };
+  return load_scene_from_string(text, "scene.yaml", l);
+}
+
+}  // namespace
+
+// Random placement shared over ranks (SceneLimits::gather): every part ends with every
+// copy bitwise where one part alone places it (the reference: the scene loaded without
+// sharing, meshes held), and the independent regions are spread over the parts.
+TEST(SceneObjects, RandomPlacementSharedOverPartsIsBitwiseOnePartsPlacement) {
+  const Scene one = load_scene_from_string(kRegions, "scene.yaml");
+  ASSERT_EQ(one.objects.size(), 1u + 15u + 4u + 12u + 10u + 8u);
+  for (int parts : {2, 3, 4, 5}) {
+    const auto mine = placed_by_each(kRegions, parts);
+    // Three groups ({a, b}, {c}, {d}): each part with a group places something, and no
+    // copy is placed twice (18 doubles a copy, 5 an entry).
+    std::size_t busy = 0, doubles = 0;
+    for (const auto& m : mine) {
+      busy += m.empty() ? 0 : 1;
+      doubles += m.size();
+    }
+    EXPECT_EQ(busy, std::min<std::size_t>(static_cast<std::size_t>(parts), 3)) << parts << " parts";
+    EXPECT_EQ(doubles, 18u * (15 + 12 + 10 + 8) + 5u * 4) << parts << " parts";
+    for (int p = 0; p < parts; ++p) {
+      const Scene s = load_as_part(kRegions, p, parts, mine);
+      ASSERT_EQ(s.objects.size(), one.objects.size());
+      EXPECT_EQ(s.sim.dt, one.sim.dt);
+      for (std::size_t k = 0; k < one.objects.size(); ++k) {
+        const TetMesh& ref = one.objects[k].mesh;
+        const Box b = box_of(ref);
+        EXPECT_EQ(s.shape(k).box.lo, b.lo) << parts << " parts, part " << p << ", " << one.objects[k].name;
+        EXPECT_EQ(s.shape(k).box.hi, b.hi) << one.objects[k].name;
+        EXPECT_EQ(s.view_mesh(k).get().points, ref.points) << parts << " parts, part " << p << ", " << one.objects[k].name;
+      }
+    }
+  }
+}
+
+// A full region is reported by every part alike, at its entry's line, whichever part
+// placed it: the first full region in scene order, as one part placing all would say.
+TEST(SceneObjects, FullRegionIsReportedByEveryPartAtItsEntry) {
+  std::string text = kRegions;
+  const std::string from = "count: 8, seed: 6", to = "count: 400, seed: 6";  // entry d
+  text.replace(text.find(from), from.size(), to);
+  const std::string line = std::to_string(1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(text.find("- name: d")), '\n'));
+  std::string expected;
+  try {
+    (void)load_scene_from_string(text, "scene.yaml");
+    FAIL() << "400 spheres of radius 0.12 cannot fit a 1 x 2 x 0.6 region";
+  } catch (const InputError& e) {
+    expected = e.what();
+  }
+  EXPECT_NE(expected.find("scene.yaml:" + line + ":"), std::string::npos) << expected;
+  EXPECT_NE(expected.find("could place only"), std::string::npos) << expected;
+  for (int parts : {2, 3}) {
+    const auto mine = placed_by_each(text, parts);
+    for (int p = 0; p < parts; ++p) {
+      try {
+        (void)load_as_part(text, p, parts, mine);
+        ADD_FAILURE() << "part " << p << " of " << parts << " loaded a scene whose region is full";
+      } catch (const InputError& e) {
+        EXPECT_EQ(std::string(e.what()), expected) << "part " << p << " of " << parts;
+      }
+    }
   }
 }
