@@ -157,21 +157,14 @@ private:
   std::unordered_map<Cell, std::vector<std::size_t>, CellHash> grid_;
 };
 
-SceneObject make_object(const EntrySpec& spec, TetMesh mesh, const std::string& name, Placement placement = {},
-                        const ObjectShape* shape = nullptr) {
+/// An object of the entry; a copy without its mesh gets its shape from the caller.
+SceneObject make_object(const EntrySpec& spec, TetMesh mesh, const std::string& name, Placement placement = {}) {
   SceneObject o;
   o.name = name;
   o.source = spec.source;
   o.material = spec.material;
   o.mesh = std::move(mesh);
   o.placement = std::move(placement);
-  if (shape) {
-    // not held: the shape is what every rank needs of the copy without its mesh
-    o.shape = *shape;
-    o.shape->box = Box::none();
-    for (std::size_t i = 0; i < o.mesh.num_vertices(); ++i) add_point(o.shape->box, &o.mesh.points[3 * i]);
-    o.mesh = TetMesh();
-  }
   o.velocity = spec.velocity;
   o.kinematic = spec.kinematic;
   o.fixed = spec.fixed;
@@ -218,11 +211,18 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool 
   copy_shape.vertices = base.num_vertices();
   copy_shape.tets = base.num_tets();
   copy_shape.triangles = hold_meshes ? 0 : extract_surface(base).num_triangles();
-  const ObjectShape* shape = hold_meshes ? nullptr : &copy_shape;
   switch (spec.instancing) {
     case EntrySpec::Instancing::single:
       return;
     case EntrySpec::Instancing::grid: {
+      // Without its mesh a grid copy needs only its box, and that is the entry's box
+      // moved by the offset, to the bit: Placement::place adds the offset to each
+      // coordinate once (x = q + o; the products with 0 and 1 change no value), and
+      // rounding is monotonic, so the smallest of the fl(q + o) is fl(min q + o), the
+      // largest likewise. So no copy is placed here (only the sign of a zero bound can
+      // differ, and -0 == +0 in every comparison of boxes).
+      Box base_box = Box::none();
+      for (std::size_t i = 0; i < base.num_vertices(); ++i) add_point(base_box, &base.points[3 * i]);
       int k = 0;
       for (int iz = 0; iz < spec.grid_count[2]; ++iz)
         for (int iy = 0; iy < spec.grid_count[1]; ++iy)
@@ -231,8 +231,20 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool 
             p.kind = Placement::Kind::offset;
             p.base = shared;
             p.offset = {ix * spec.grid_spacing[0], iy * spec.grid_spacing[1], iz * spec.grid_spacing[2]};
-            TetMesh m = p.place();
-            objects.push_back(make_object(spec, std::move(m), spec.name + "[" + std::to_string(k++) + "]", std::move(p), shape));
+            const std::string name = spec.name + "[" + std::to_string(k++) + "]";
+            if (hold_meshes) {
+              TetMesh m = p.place();
+              objects.push_back(make_object(spec, std::move(m), name, std::move(p)));
+              continue;
+            }
+            ObjectShape s = copy_shape;
+            for (int d = 0; d < 3; ++d) {
+              s.box.lo[d] = base_box.lo[d] + p.offset[d];
+              s.box.hi[d] = base_box.hi[d] + p.offset[d];
+            }
+            SceneObject o = make_object(spec, TetMesh(), name, std::move(p));
+            o.shape = s;
+            objects.push_back(std::move(o));
           }
       return;
     }
