@@ -15,13 +15,16 @@ using namespace softcontact;
 
 namespace {
 
-const std::string kScene = R"(simulation:
+// The simulation and material of both test scenes.
+const std::string kHeader = R"(simulation:
   dt: auto
   steps: 10
 materials:
   - {name: rubber, model: corotational, young: 1.0e5, poisson: 0.3, density: 1000}
 objects:
-  - name: floor
+)";
+
+const std::string kScene = kHeader + R"(  - name: floor
     material: rubber
     primitive: {type: plate, size: [3, 3], thickness: 0.1, cells: [6, 6]}
     transform: {translate: [0, 0, -0.05]}
@@ -130,13 +133,7 @@ namespace {
 
 // Four random entries: two in one region (the second must avoid the first's copies, so
 // the two are one group), two in regions of their own, and a grid and a floor between.
-const std::string kRegions = R"(simulation:
-  dt: auto
-  steps: 10
-materials:
-  - {name: rubber, model: corotational, young: 1.0e5, poisson: 0.3, density: 1000}
-objects:
-  - name: floor
+const std::string kRegions = kHeader + R"(  - name: floor
     material: rubber
     primitive: {type: plate, size: [9, 3], thickness: 0.1, cells: [9, 3]}
     transform: {translate: [0, 0, -0.05]}
