@@ -210,6 +210,53 @@ TEST(Distributed, KthSmallestIsNthElementOfAllRanksValues) {
   }
 }
 
+// allgather_doubles: every rank's values in rank order on every rank, rank 0 giving none.
+TEST(Distributed, AllgatherDoublesConcatenatesInRankOrder) {
+  const int rank = comm_rank(MPI_COMM_WORLD), n = comm_size(MPI_COMM_WORLD);
+  std::vector<double> mine;
+  for (int i = 0; i < rank; ++i) mine.push_back(100.0 * rank + i);
+  std::vector<double> expected;
+  for (int r = 0; r < n; ++r)
+    for (int i = 0; i < r; ++i) expected.push_back(100.0 * r + i);
+  EXPECT_EQ(allgather_doubles(MPI_COMM_WORLD, mine), expected);
+}
+
+// Random placement shared over the ranks (copies_made_on_demand: each rank places the
+// groups of regions given to it, the placements all-gathered): every rank ends with every
+// copy's box and mesh bitwise those of placing the whole scene alone (the reference: the
+// scene loaded without sharing, every mesh held). Five regions, one of them holding two
+// entries, so that 1 to 4 ranks each place some and one rank places a group of two.
+TEST(Distributed, RandomPlacementOverRanksIsBitwiseOneRanks) {
+  std::string text = "simulation: {dt: auto, steps: 10}\n"
+                     "materials:\n  - {name: rubber, model: corotational, young: 1.0e5, poisson: 0.3, density: 1000}\n"
+                     "objects:\n"
+                     "  - {name: floor, material: rubber, kinematic: true, transform: {translate: [0, 0, -0.05]},\n"
+                     "     primitive: {type: plate, size: [12, 3], thickness: 0.1, cells: [12, 3]}}\n";
+  for (int k = 0; k < 5; ++k) {
+    const std::string x0 = std::to_string(-5.5 + 2.2 * k), x1 = std::to_string(-4.0 + 2.2 * k);
+    const std::string region = "region: {min: [" + x0 + ", -1, 0], max: [" + x1 + ", 1, 1]}";
+    text += "  - {name: s" + std::to_string(k) + ", material: rubber, primitive: {type: sphere, radius: 0.1, resolution: 3},\n"
+            "     instances: {random: {count: " + std::to_string(6 + 3 * k) + ", seed: " + std::to_string(11 + k) +
+            ", rotate: true, " + region + "}}}\n";
+    if (k == 2)
+      text += "  - {name: b, material: rubber, primitive: {type: box, size: [0.15, 0.1, 0.2], cells: [1, 1, 2]},\n"
+              "     instances: {random: {count: 9, seed: 3, rotate: true, " + region + "}}}\n";
+  }
+  const Scene one = load_scene_from_string(text, "scene.yaml");
+  const Scene shared = load_scene_from_string(text, "scene.yaml", copies_made_on_demand(MPI_COMM_WORLD));
+  ASSERT_EQ(shared.objects.size(), one.objects.size());
+  ASSERT_EQ(one.objects.size(), 1u + 6 + 9 + 12 + 9 + 15 + 18);
+  EXPECT_EQ(shared.sim.dt, one.sim.dt);
+  for (std::size_t k = 0; k < one.objects.size(); ++k) {
+    const TetMesh& ref = one.objects[k].mesh;
+    Box b = Box::none();
+    for (std::size_t i = 0; i < ref.num_vertices(); ++i) add_point(b, &ref.points[3 * i]);
+    EXPECT_EQ(shared.shape(k).box.lo, b.lo) << one.objects[k].name;
+    EXPECT_EQ(shared.shape(k).box.hi, b.hi) << one.objects[k].name;
+    EXPECT_EQ(shared.view_mesh(k).get().points, ref.points) << one.objects[k].name;
+  }
+}
+
 TEST(Distributed, PileWithTwoThreadsPerRankIsBitwiseIdentical) {
   expect_identical(2, [](Simulator&, int) {});
 }
