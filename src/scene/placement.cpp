@@ -262,8 +262,6 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool 
       PendingRandom entry;
       entry.spec = spec;
       entry.spec.mesh = TetMesh();
-      entry.base = shared;
-      entry.centre = own.c;
       entry.radius = own.r;
       entry.first = objects.size();
       for (int k = 0; k < spec.random_count; ++k) {
@@ -302,7 +300,8 @@ constexpr std::size_t kCopyDoubles = 18, kEntryHeader = 5;
 /// a wide floor plate would cover the whole region above it). Appends the entry's record
 /// to `out` and fills its slots' boxes (the later entries of its group index them).
 /// Returns false when the region is full.
-bool place_entry(std::size_t position, const PendingRandom& e, std::vector<SceneObject>& objects, std::vector<double>& out) {
+bool place_entry(std::size_t position, const PendingRandom& e, bool hold_meshes, std::vector<SceneObject>& objects,
+                 std::vector<double>& out) {
   const EntrySpec& spec = e.spec;
   const double r = e.radius;
   BoxIndex placed(spec.region.lo, 2 * r);
@@ -347,11 +346,12 @@ bool place_entry(std::size_t position, const PendingRandom& e, std::vector<Scene
       SceneObject& o = objects[e.first + static_cast<std::size_t>(k)];
       o.placement.rotation = R;
       o.placement.offset = c;
-      const TetMesh m = o.placement.place();
+      TetMesh m = o.placement.place();
       placed.add(bounding_box(m));
       Box shape_box = Box::none();  // as make_object measures a copy's shape
       for (std::size_t i = 0; i < m.num_vertices(); ++i) add_point(shape_box, &m.points[3 * i]);
       o.shape->box = shape_box;
+      if (hold_meshes) o.mesh = std::move(m);  // kept, not placed again from the records
       out.insert(out.end(), R.begin(), R.end());
       out.insert(out.end(), c.begin(), c.end());
       out.insert(out.end(), shape_box.lo.begin(), shape_box.lo.end());
@@ -422,7 +422,7 @@ std::optional<PlacementFailure> place_random(std::vector<PendingRandom>& pending
     load[p] += copies[g];
     if (static_cast<int>(p) != part) continue;
     for (std::size_t i : groups[g])
-      if (!place_entry(i, pending[i], objects, mine)) break;  // the rest of the group cannot matter
+      if (!place_entry(i, pending[i], hold_meshes, objects, mine)) break;  // the rest of the group cannot matter
   }
   const std::vector<double> all = shared ? limits.gather(mine) : mine;
 
@@ -445,7 +445,7 @@ std::optional<PlacementFailure> place_random(std::vector<PendingRandom>& pending
       std::copy_n(&all[at], 9, o.placement.rotation.begin());
       std::copy_n(&all[at + 9], 3, o.placement.offset.begin());
       if (hold_meshes) {
-        o.mesh = o.placement.place();
+        if (o.mesh.points.empty()) o.mesh = o.placement.place();  // placed on another part
         o.shape.reset();
       } else {
         std::copy_n(&all[at + 12], 3, o.shape->box.lo.begin());

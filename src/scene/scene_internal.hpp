@@ -3,7 +3,6 @@
 // instantiated into objects.
 #include <array>
 #include <cstdint>
-#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -41,12 +40,11 @@ struct EntrySpec {
 };
 
 /// A random entry whose copies have their slots in the scene's objects, [first, first +
-/// spec.random_count), but are not placed yet: place_random places them. The copies
-/// share `base`, the entry's transformed mesh; its bounding sphere is (centre, radius).
+/// spec.random_count), but are not placed yet: place_random places them. Each slot's
+/// Placement already holds the entry's transformed mesh and its bounding sphere's centre;
+/// `radius` is that sphere's radius.
 struct PendingRandom {
-  EntrySpec spec;  ///< without its mesh (the copies use `base`)
-  std::shared_ptr<const TetMesh> base;
-  Vec3 centre{};
+  EntrySpec spec;  ///< without its mesh (the slots' Placement::base holds it)
   double radius = 0;
   std::size_t first = 0;
 };
