@@ -8,8 +8,8 @@
 //  2. per vertex (OpenMP over vertices): the sum of its corners' entries, taken over the
 //     incident tets in increasing tet global id (a CSR incidence built once).
 // Every tet's forces depend only on that tet, and every sum has a fixed order, so the
-// result is bitwise the same for any number of threads (and of ranks, since objects are
-// never split across ranks).
+// result is bitwise the same for any number of threads (and of ranks: an object split
+// over ranks has its vertices' sums formed the same way from its parts, split_forces.hpp).
 //
 // Objects can use different models; each object's tets are one contiguous segment with
 // one material. Fully kinematic objects are skipped (they never deform).
@@ -115,6 +115,23 @@ public:
   void compute_tet_forces(const World& w, bool damping);
   void gather_forces(const World& w, std::vector<double>& f, bool damping) const;
 
+  /// Objects whose internal forces another component computes (objects split over ranks,
+  /// split_forces.hpp): add_forces skips their tets and their vertices from now on (an
+  /// empty list restores them). measure() and the stiffness still cover them.
+  void exclude_objects(const World& w, const std::vector<int>& objects);
+
+  /// After compute_tet_forces: the corner forces of local vertex i, appended to `out` in
+  /// incidence order (ascending tet global id). With `fold`, their sum, 3 doubles, taken
+  /// exactly as add_forces takes it; else each entry, 3 doubles apiece.
+  void append_vertex_corners(std::size_t i, bool fold, std::vector<double>& out) const;
+
+  /// add_forces' sum for local vertex i from its corner forces given apart: the n entries
+  /// of c (n,3) folded in order from zero, then the -alpha m v term with `damping` (alpha
+  /// [1/s], the vertex's Rayleigh mass damping), then f_i += the sum. With the entries in
+  /// incidence order it is bitwise add_forces' result (split_forces.hpp relies on it).
+  static void add_vertex_force(const World& w, std::vector<double>& f, bool damping, double alpha, std::size_t i,
+                               const double* c, std::size_t n);
+
   /// Strain energy and inverted-tet count per owned object at World::x (summed in tet
   /// order, so deterministic).
   void measure(const World& w, ElasticMeasures& out) const;
@@ -162,6 +179,10 @@ private:
   std::vector<FusedObject> fused_;
   std::vector<std::size_t> unfused_blocks_;                      ///< indices into blocks_
   std::vector<std::pair<std::size_t, std::size_t>> unfused_vertices_;  ///< ascending ranges [begin, end)
+  /// The plan with no object excluded (exclude_objects filters it).
+  std::vector<FusedObject> all_fused_;
+  std::vector<std::size_t> all_unfused_blocks_;
+  std::vector<std::pair<std::size_t, std::size_t>> all_unfused_vertices_;
   void gather_range(const World& w, std::vector<double>& f, bool damping, std::size_t begin, std::size_t end) const;
   void run_block(const World& w, bool damping, std::size_t k);
   std::vector<double> vertex_alpha_;      ///< (n_local) Rayleigh alpha of the vertex's material [1/s]

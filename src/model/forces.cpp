@@ -194,6 +194,9 @@ ElasticForces::ElasticForces(const Scene& scene, const World& w) {
       if (unfused_vertices_.empty() || unfused_vertices_.back().second != i) unfused_vertices_.push_back({i, i});
       ++unfused_vertices_.back().second;
     }
+  all_fused_ = fused_;
+  all_unfused_blocks_ = unfused_blocks_;
+  all_unfused_vertices_ = unfused_vertices_;
 }
 
 namespace {
@@ -236,26 +239,95 @@ void ElasticForces::compute_tet_forces(const World& w, bool damping) {
 
 namespace {
 
-/// f_i += the sum of vertex i's corner forces in incidence order (ascending tet global
-/// id), and the -alpha m v term.
-inline void gather_vertex(const World& w, std::vector<double>& f, bool damping, const double* tf,
-                          const std::int64_t* offset, const std::int32_t* slot, const double* alpha, std::size_t i) {
-  double acc[3] = {0, 0, 0};
+/// The sum of vertex i's corner forces in incidence order (ascending tet global id).
+inline void fold_corners(const double* tf, const std::int64_t* offset, const std::int32_t* slot, std::size_t i,
+                         double acc[3]) {
+  acc[0] = acc[1] = acc[2] = 0;
   for (std::int64_t k = offset[i]; k < offset[i + 1]; ++k) {
     const double* c = tf + slot[k];
     acc[0] += c[0];
     acc[1] += c[kLanes];
     acc[2] += c[2 * kLanes];
   }
+}
+
+/// f_i += acc and the -alpha m v term.
+inline void finish_vertex(const World& w, std::vector<double>& f, bool damping, double alpha, std::size_t i,
+                          double acc[3]) {
   double* fi = &f[3 * i];
-  if (damping && w.inv_mass[i] != 0 && alpha[i] > 0) {
-    const double am = alpha[i] * w.mass[i];
+  if (damping && w.inv_mass[i] != 0 && alpha > 0) {
+    const double am = alpha * w.mass[i];
     for (int d = 0; d < 3; ++d) acc[d] -= am * w.v[3 * i + d];
   }
   for (int d = 0; d < 3; ++d) fi[d] += acc[d];
 }
 
+/// f_i += the sum of vertex i's corner forces in incidence order (ascending tet global
+/// id), and the -alpha m v term.
+inline void gather_vertex(const World& w, std::vector<double>& f, bool damping, const double* tf,
+                          const std::int64_t* offset, const std::int32_t* slot, const double* alpha, std::size_t i) {
+  double acc[3];
+  fold_corners(tf, offset, slot, i, acc);
+  finish_vertex(w, f, damping, alpha[i], i, acc);
+}
+
 }  // namespace
+
+void ElasticForces::append_vertex_corners(std::size_t i, bool fold, std::vector<double>& out) const {
+  if (fold) {
+    double acc[3];
+    fold_corners(tet_force_.data(), inc_offset_.data(), inc_slot_.data(), i, acc);
+    out.insert(out.end(), acc, acc + 3);
+    return;
+  }
+  for (std::int64_t k = inc_offset_[i]; k < inc_offset_[i + 1]; ++k) {
+    const double* c = tet_force_.data() + inc_slot_[static_cast<std::size_t>(k)];
+    out.push_back(c[0]);
+    out.push_back(c[kLanes]);
+    out.push_back(c[2 * kLanes]);
+  }
+}
+
+void ElasticForces::add_vertex_force(const World& w, std::vector<double>& f, bool damping, double alpha, std::size_t i,
+                                     const double* c, std::size_t n) {
+  double acc[3] = {0, 0, 0};
+  for (std::size_t k = 0; k < n; ++k) {
+    acc[0] += c[3 * k];
+    acc[1] += c[3 * k + 1];
+    acc[2] += c[3 * k + 2];
+  }
+  finish_vertex(w, f, damping, alpha, i, acc);
+}
+
+void ElasticForces::exclude_objects(const World& w, const std::vector<int>& objects) {
+  std::vector<char> skip_segment(segments_.size(), 0);
+  for (std::size_t k = 0; k < segments_.size(); ++k)
+    skip_segment[k] = std::find(objects.begin(), objects.end(), segments_[k].object) != objects.end() ? 1 : 0;
+  fused_.clear();
+  for (const FusedObject& o : all_fused_)
+    if (o.block_begin == o.block_end || !skip_segment[static_cast<std::size_t>(blocks_[o.block_begin].segment)])
+      fused_.push_back(o);
+  unfused_blocks_.clear();
+  for (std::size_t b : all_unfused_blocks_)
+    if (!skip_segment[static_cast<std::size_t>(blocks_[b].segment)]) unfused_blocks_.push_back(b);
+  // The excluded objects' owned vertices leave the gather's ranges.
+  std::vector<std::pair<std::size_t, std::size_t>> cut;
+  for (int k : objects)
+    if (w.owns_object(k)) {
+      const auto b = static_cast<std::size_t>(w.vertex_offset[static_cast<std::size_t>(k)]);
+      cut.push_back({b, b + static_cast<std::size_t>(w.layout[static_cast<std::size_t>(k)].vertex_count)});
+    }
+  std::sort(cut.begin(), cut.end());
+  unfused_vertices_.clear();
+  for (auto range : all_unfused_vertices_) {
+    for (const auto& c : cut) {
+      if (c.second <= range.first || c.first >= range.second) continue;
+      if (c.first > range.first) unfused_vertices_.push_back({range.first, c.first});
+      range.first = std::min(range.second, c.second);
+    }
+    if (range.first < range.second) unfused_vertices_.push_back(range);
+  }
+}
 
 void ElasticForces::gather_range(const World& w, std::vector<double>& f, bool damping, std::size_t begin,
                                  std::size_t end) const {

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -325,6 +326,66 @@ TEST(ElasticForces, ObjectsEvaluatedWholeAddInTetOrder) {
     for (std::size_t k = 0; k < g.size(); ++k) ASSERT_EQ(g[k], ref[k]) << "dof " << k << " (two phases)";
   }
   omp_set_num_threads(before);
+}
+
+// Objects split over ranks (split_forces.hpp): exclude_objects drops an object's tets and
+// vertices from add_forces, whether it is evaluated whole (a small one) or in two phases
+// (a large one), and leaves every other vertex's force bitwise as it was. The excluded
+// vertices' forces rebuilt from their corner forces (append_vertex_corners, each entry or
+// the fold) by add_vertex_force are bitwise add_forces' own, with both kinds of damping;
+// an empty list restores the whole plan.
+TEST(ElasticForces, ExcludedObjectsRebuildFromTheirCornerForcesBitwise) {
+  const Scene s = load_scene_from_string(
+      "simulation: {dt: 1e-4, steps: 1, gravity: [0, 0, 0]}\n"
+      "materials:\n  - {name: m, model: neohookean, young: 1e5, poisson: 0.3, density: 1000, damping: {mass: 0.7, stiffness: 0.01}}\n"
+      "  - {name: c, model: corotational, young: 1e5, poisson: 0.3, density: 1000, damping: {mass: 0.3, stiffness: 0.02}}\n"
+      "objects:\n"
+      "  - {material: m, primitive: {type: sphere, radius: 0.2, resolution: 4}}\n"
+      "  - {material: c, primitive: {type: box, size: [1, 1, 0.5], cells: [12, 12, 6]}, transform: {translate: [0, 0, 1]}}\n"
+      "  - {material: m, primitive: {type: box, size: [0.3, 0.3, 0.3], cells: [2, 2, 2]}, transform: {translate: [1, 0, 0]}}\n"
+      "  - {material: c, primitive: {type: sphere, radius: 0.2, resolution: 5}, transform: {translate: [0, 1, 0]}}\n",
+      "test.yaml");
+  World w = build_world(s, block_partition(s, 1), 0);
+  ElasticForces ef(s, w);
+  perturb(w.x, 0.01, 31);
+  perturb(w.v, 0.5, 32);
+  std::vector<double> full(w.x.size(), 0.0);
+  ef.add_forces(w, full, true);
+
+  const std::vector<int> excluded = {1, 3};  // the large object and a small one
+  auto is_excluded = [&](std::size_t i) {
+    return std::find(excluded.begin(), excluded.end(), w.vertex_object[i]) != excluded.end();
+  };
+  ef.exclude_objects(w, excluded);
+  std::vector<double> part(w.x.size(), 0.0);
+  ef.add_forces(w, part, true);
+  std::size_t checked = 0;
+  for (std::size_t i = 0; i < w.n_owned; ++i)
+    for (std::size_t d = 0; d < 3; ++d) {
+      if (is_excluded(i)) ASSERT_EQ(part[3 * i + d], 0.0) << "excluded vertex " << i << " got a force";
+      else ASSERT_EQ(part[3 * i + d], full[3 * i + d]) << "vertex " << i;
+      checked += is_excluded(i) ? 1 : 0;
+    }
+  ASSERT_GT(checked, std::size_t{3 * 1000});
+
+  // The excluded vertices from their corner forces (the tet buffer holds every tet's).
+  ef.compute_tet_forces(w, true);
+  for (const bool fold : {false, true}) {
+    std::vector<double> rebuilt = part;
+    for (std::size_t i = 0; i < w.n_owned; ++i) {
+      if (!is_excluded(i)) continue;
+      std::vector<double> c;
+      ef.append_vertex_corners(i, fold, c);
+      const double alpha = s.materials[s.objects[static_cast<std::size_t>(w.vertex_object[i])].material].damping_mass;
+      ElasticForces::add_vertex_force(w, rebuilt, true, alpha, i, c.data(), c.size() / 3);
+    }
+    for (std::size_t k = 0; k < full.size(); ++k) ASSERT_EQ(rebuilt[k], full[k]) << "dof " << k << (fold ? " (fold)" : "");
+  }
+
+  ef.exclude_objects(w, {});
+  std::vector<double> again(w.x.size(), 0.0);
+  ef.add_forces(w, again, true);
+  for (std::size_t k = 0; k < full.size(); ++k) ASSERT_EQ(again[k], full[k]) << "dof " << k << " after restoring";
 }
 
 TEST(ElasticForces, MeasureCountsInvertedTets) {
