@@ -20,6 +20,12 @@ public:
   /// Sends send[k] to neighbors()[k] and returns what each neighbour sent, in the same
   /// order. Collective over the neighbours (every neighbour must call it too).
   virtual std::vector<std::vector<char>> exchange_bytes(const std::vector<std::vector<char>>& send) = 0;
+  /// Sends send[k] to peers[k] (ascending, any ranks but this one) and returns what each
+  /// peer sent, in the same order. Collective over the peers: each must list this rank.
+  /// (Objects split for their forces, split_forces.hpp, exchange with ranks that need not
+  /// be neighbours.) An exchange without it throws.
+  virtual std::vector<std::vector<char>> exchange_with(const std::vector<int>& peers,
+                                                       const std::vector<std::vector<char>>& send);
 
   /// This rank, and the number of ranks, of the communicator.
   virtual int rank() const = 0;

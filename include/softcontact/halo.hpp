@@ -40,6 +40,8 @@ public:
   // NeighbourExchange (exchange.hpp), over `comm`.
   const std::vector<int>& neighbors() const override { return neighbors_; }
   std::vector<std::vector<char>> exchange_bytes(const std::vector<std::vector<char>>& send) override;
+  std::vector<std::vector<char>> exchange_with(const std::vector<int>& peers,
+                                               const std::vector<std::vector<char>>& send) override;
   int rank() const override { return rank_; }
   int ranks() const override { return ranks_; }
   std::vector<std::vector<char>> gather_to_root(const std::vector<char>& mine) override;

@@ -23,7 +23,8 @@ struct MemoryEstimate {
 /// The model, fitted to measured peaks (docs/reliability.md, "Memory"): every rank holds
 /// the meshes of the single-copy entries and a record of every object, and the simulation
 /// state of the objects it owns (copies of multi-copy entries only where owned or
-/// ghosted). Objects are never split, so a rank's share is at least the largest object.
+/// ghosted). Objects are never split for their state, so a rank's share is at least the
+/// largest object (the parts of objects split for their forces are not counted).
 MemoryEstimate estimate_memory(const Scene& scene, int nranks);
 
 /// What this rank may use [bytes]: its address-space limit (RLIMIT_AS, 0 when none) and

@@ -14,6 +14,8 @@ namespace softcontact {
 
 class ElasticForces;
 class ImplicitEuler;
+class NeighbourExchange;
+class SplitForces;
 
 class UnconstrainedMotion {
 public:
@@ -25,7 +27,9 @@ public:
 
   /// f (n_local,3) = gravity + internal forces at World::x, and the Rayleigh damping at
   /// World::v unless implicit Euler treats it inside its linear system.
-  void forces(const World& w, std::vector<double>& f);
+  /// Objects split over ranks (split_forces.hpp) take their internal forces from `split`
+  /// (collective over the neighbours of `exchange`).
+  void forces(const World& w, std::vector<double>& f, SplitForces* split = nullptr, NeighbourExchange* exchange = nullptr);
   /// After the initial state (World::x, World::v) is set: the integrator's start from f.
   void start(World& w, const std::vector<double>& f) const;
   /// World::x = x~ from f, World::x_prev = x^t; then the prescribed motion over

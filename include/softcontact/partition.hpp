@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "softcontact/box.hpp"
+#include "softcontact/mesh.hpp"
 
 namespace softcontact {
 
@@ -76,6 +77,11 @@ std::vector<ObjectEdge> object_graph_edges(const PartitionInput& in);
 /// Throws RuntimeFailure for malformed input (sizes, negative weight, non-finite or
 /// inverted box, nparts < 1) or when METIS fails.
 std::vector<int> partition_objects(const PartitionInput& in, int nparts);
+
+/// The tets of one mesh in `nparts` parts (objects split over ranks, split_forces.hpp):
+/// METIS_PartMeshDual on the tets' dual graph (tets sharing a face), fixed seed, so every
+/// rank computes the same parts. Part per tet, in [0, nparts); a part may be empty.
+std::vector<std::int32_t> split_tet_parts(const TetMesh& mesh, int nparts);
 
 /// Imbalance (max part weight / mean part weight, with the weights as given; 1 when the
 /// total is 0) and edge cut of `part` on the graph of object_graph_edges(in).

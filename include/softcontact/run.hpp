@@ -61,6 +61,8 @@ struct RunSummary {
   /// every rank; the set built at the start is not counted. 0 on one rank
   /// (docs/architecture.md, "Ghost set" and "Migration").
   std::int64_t ghost_rebuilds = 0, repartitions = 0;
+  /// Objects whose forces were shared over ranks, and over how many.
+  int split_objects = 0, split_ranks = 0;
 };
 
 /// Applies the overrides to the scene's simulation settings.

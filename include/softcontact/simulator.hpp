@@ -17,6 +17,7 @@
 #include <mpi.h>
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <vector>
 
@@ -137,6 +138,10 @@ public:
   void set_rebalance_policy(const RebalancePolicy& p) { rebalance_ = p; }
   /// Repartitions done by the rebalance policy so far.
   std::int64_t repartitions() const { return repartitions_; }
+  /// Objects whose forces are shared over ranks (split_forces.hpp), and the ranks sharing
+  /// each; the same on every rank.
+  int split_objects() const { return split_count_; }
+  int split_ranks() const { return split_ranks_; }
   /// Ghost-set rebuilds so far (the halo grows and shrinks as objects move).
   std::int64_t ghost_rebuilds() const;
   /// Bytes this rank has received through the halo since construction.
@@ -154,6 +159,9 @@ private:
   void refresh_final_ghosts();
 
   void build_components();
+  // Before forces are evaluated: the split objects' plan (split_forces.hpp), made again
+  // when the World was replaced.
+  void prepare_split();
   void rebuild_ghosts(bool force);
   void follow_ghosts();
   // Drops the meshes of the objects this rank neither owns nor ghosts (Scene::drop_meshes).
@@ -184,6 +192,10 @@ private:
   double verify_median_ = 0;                  // the whole scene's median edge as verify.hpp takes it
   bool verify_median_known_ = false;
   double free_fall_speed_ = 0;
+  std::vector<int> split_candidates_;          // objects bigger than a share (split_forces.hpp)
+  bool split_dirty_ = true;                    // the World was replaced since the split plan was made
+  int split_count_ = 0, split_ranks_ = 0;      // split objects, the ranks sharing each
+  std::map<int, std::vector<std::int32_t>> split_parts_;  // object -> its tets' parts (one per rank)
 };
 
 }  // namespace softcontact

@@ -24,6 +24,7 @@ namespace softcontact {
 
 class NeighbourExchange;
 class UnconstrainedMotion;
+class SplitForces;
 
 /// Mean and median length over every tet edge of the scene (an edge counts once per
 /// tet) [m]; the same on every rank. The mean is mean_of_object_sums of the objects' sums.
@@ -63,14 +64,20 @@ public:
   /// Sizes the force buffer after the World's ghost part changed.
   void resize();
   /// After the initial state is set: the forces at it and the integrator's start.
-  void start();
+  /// `exchange`: as for forces().
+  void start(NeighbourExchange* exchange = nullptr);
+  /// Objects split over ranks (split_forces.hpp) from now on: ElasticForces skips the
+  /// owned ones, `split` adds their forces (null: none).
+  void set_split(std::unique_ptr<SplitForces> split);
+  const SplitForces* split() const { return split_.get(); }
 
   /// One whole step on one rank, from time t: Algorithm 1, one phase per line.
   void step(double t);
 
   // The phases of step(), for the parallel layer.
-  /// p(x^t, v^t): gravity, internal forces, damping.
-  void forces();
+  /// p(x^t, v^t): gravity, internal forces, damping. With split objects, collective over
+  /// the neighbours of `exchange`.
+  void forces(NeighbourExchange* exchange = nullptr);
   /// x~ from p (explicit or implicit), World::x_prev = x^t; prescribed motion over [t, t + dt].
   void unconstrained_motion(double t);
   /// The colliding points at x~ and their consistent penetration vectors; with
@@ -106,6 +113,7 @@ private:
   World& world_;
   CollisionSettings settings_;
   std::unique_ptr<UnconstrainedMotion> motion_;
+  std::unique_ptr<SplitForces> split_;
   std::unique_ptr<CollisionDetector> detector_;
   SelfGapCache gaps_;  // self-contact gaps of every object a detector has held (rest shapes only)
   std::unique_ptr<ContactResponse> contact_;

@@ -411,7 +411,12 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
         << "             " << r.h5 << "  (HDF5, layout in docs/output-format.md)\n"
         << "diagnostics: " << r.csv << "\n";
     if (size > 1)
-      out << "ranks:       " << r.ghost_rebuilds << " ghost-set rebuilds, " << r.repartitions << " repartitions\n";
+    {
+      out << "ranks:       " << r.ghost_rebuilds << " ghost-set rebuilds, " << r.repartitions << " repartitions";
+      if (r.split_objects > 0)
+        out << ", " << r.split_objects << " object(s) split for their forces over " << r.split_ranks << " ranks";
+      out << "\n";
+    }
     if (!r.verify_json.empty()) out << "verify:      " << r.verify_json << "\n";
   }
   return 0;

@@ -3,7 +3,14 @@
 // sums of. Exchanged once per step.
 #include "softcontact/keyed_sums.hpp"
 
+#include "softcontact/error.hpp"
+
 namespace softcontact {
+
+std::vector<std::vector<char>> NeighbourExchange::exchange_with(const std::vector<int>&,
+                                                                const std::vector<std::vector<char>>&) {
+  throw RuntimeFailure("this exchange has no messages between ranks that are not neighbours");
+}
 
 void KeyedSums::plan(NeighbourExchange* exchange, const std::vector<int>& owner, const std::vector<gid_t>& gid,
                      const std::function<std::int32_t(gid_t)>& slot_of) {

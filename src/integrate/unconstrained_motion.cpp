@@ -3,6 +3,7 @@
 #include "softcontact/forces.hpp"
 #include "softcontact/implicit_euler.hpp"
 #include "softcontact/integrator.hpp"
+#include "softcontact/split_forces.hpp"
 
 namespace softcontact {
 
@@ -14,11 +15,12 @@ UnconstrainedMotion::UnconstrainedMotion(const Scene& scene, const World& w)
 
 UnconstrainedMotion::~UnconstrainedMotion() = default;
 
-void UnconstrainedMotion::forces(const World& w, std::vector<double>& f) {
+void UnconstrainedMotion::forces(const World& w, std::vector<double>& f, SplitForces* split, NeighbourExchange* exchange) {
   // Step 1 of Algorithm 1: p = gravity + internal forces + Rayleigh damping at (x^t, v^t);
   // implicit Euler treats damping inside its linear system instead.
   gravity_forces(w, scene_.sim.gravity, f);
   elastic_->add_forces(w, f, !implicit_);
+  if (split) split->add(w, f, !implicit_, exchange);  // the split objects' (ElasticForces skips them)
 }
 
 void UnconstrainedMotion::start(World& w, const std::vector<double>& f) const { start_integration(w, scene_.sim, f); }

@@ -74,23 +74,28 @@ void Halo::update(double* xyz) {
 }
 
 std::vector<std::vector<char>> Halo::exchange_bytes(const std::vector<std::vector<char>>& send) {
-  SC_ASSERT(send.size() == neighbors_.size());
-  const std::size_t nn = neighbors_.size();
+  return exchange_with(neighbors_, send);
+}
+
+std::vector<std::vector<char>> Halo::exchange_with(const std::vector<int>& peers,
+                                                   const std::vector<std::vector<char>>& send) {
+  SC_ASSERT(send.size() == peers.size());
+  const std::size_t nn = peers.size();
   std::vector<std::vector<char>> recv(nn);
   if (nn == 0) return recv;
   std::vector<std::int64_t> out_size(nn), in_size(nn);
   std::vector<MPI_Request> req(2 * nn);
   for (std::size_t k = 0; k < nn; ++k) {
     out_size[k] = static_cast<std::int64_t>(send[k].size());
-    MPI_Irecv(&in_size[k], 1, MPI_INT64_T, neighbors_[k], kTagSize, comm_, &req[k]);
-    MPI_Isend(&out_size[k], 1, MPI_INT64_T, neighbors_[k], kTagSize, comm_, &req[nn + k]);
+    MPI_Irecv(&in_size[k], 1, MPI_INT64_T, peers[k], kTagSize, comm_, &req[k]);
+    MPI_Isend(&out_size[k], 1, MPI_INT64_T, peers[k], kTagSize, comm_, &req[nn + k]);
   }
   MPI_Waitall(static_cast<int>(2 * nn), req.data(), MPI_STATUSES_IGNORE);
   for (std::size_t k = 0; k < nn; ++k) {
     recv[k].resize(static_cast<std::size_t>(in_size[k]));
     bytes_received_ += in_size[k] + static_cast<std::int64_t>(sizeof(std::int64_t));
-    MPI_Irecv(recv[k].data(), static_cast<int>(in_size[k]), MPI_BYTE, neighbors_[k], kTagData, comm_, &req[k]);
-    MPI_Isend(send[k].data(), static_cast<int>(send[k].size()), MPI_BYTE, neighbors_[k], kTagData, comm_,
+    MPI_Irecv(recv[k].data(), static_cast<int>(in_size[k]), MPI_BYTE, peers[k], kTagData, comm_, &req[k]);
+    MPI_Isend(send[k].data(), static_cast<int>(send[k].size()), MPI_BYTE, peers[k], kTagData, comm_,
               &req[nn + k]);
   }
   MPI_Waitall(static_cast<int>(2 * nn), req.data(), MPI_STATUSES_IGNORE);

@@ -307,4 +307,31 @@ PartitionQuality partition_quality(const PartitionInput& in, const std::vector<i
   return quality(in, object_graph_edges(in), part, nparts);
 }
 
+std::vector<std::int32_t> split_tet_parts(const TetMesh& mesh, int nparts) {
+  const std::size_t nt = mesh.num_tets();
+  std::vector<std::int32_t> out(nt, 0);
+  if (nparts <= 1 || nt == 0) return out;
+  if (nt > static_cast<std::size_t>(std::numeric_limits<idx_t>::max() / 4))
+    throw RuntimeFailure("split_tet_parts: " + std::to_string(nt) + " tets exceed METIS's index type");
+  idx_t ne = static_cast<idx_t>(nt), nn = static_cast<idx_t>(mesh.num_vertices());
+  std::vector<idx_t> eptr(nt + 1), eind(mesh.tets.begin(), mesh.tets.end());
+  for (std::size_t t = 0; t <= nt; ++t) eptr[t] = static_cast<idx_t>(4 * t);
+  idx_t ncommon = 3, np = nparts, objval = 0;
+  idx_t options[METIS_NOPTIONS];
+  METIS_SetDefaultOptions(options);
+  options[METIS_OPTION_SEED] = kMetisSeed;
+  options[METIS_OPTION_NUMBERING] = 0;
+  std::vector<idx_t> epart(nt, 0), npart(mesh.num_vertices(), 0);
+  const int status = METIS_PartMeshDual(&ne, &nn, eptr.data(), eind.data(), nullptr, nullptr, &ncommon, &np, nullptr,
+                                        options, &objval, epart.data(), npart.data());
+  if (status != METIS_OK)
+    throw RuntimeFailure(std::string("split_tet_parts: METIS_PartMeshDual failed with ") + metis_status(status) + " on " +
+                         std::to_string(nt) + " tets, " + std::to_string(nparts) + " parts");
+  for (std::size_t t = 0; t < nt; ++t) {
+    if (epart[t] < 0 || epart[t] >= np) throw RuntimeFailure("split_tet_parts: METIS returned part " + std::to_string(epart[t]));
+    out[t] = static_cast<std::int32_t>(epart[t]);
+  }
+  return out;
+}
+
 }  // namespace softcontact

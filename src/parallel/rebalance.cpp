@@ -10,6 +10,7 @@
 #include "softcontact/exchange.hpp"
 #include "softcontact/ghosts.hpp"
 #include "softcontact/mpi_util.hpp"
+#include "softcontact/split_forces.hpp"
 
 namespace softcontact {
 
@@ -19,6 +20,15 @@ std::int64_t static_work(const Scene& scene, std::size_t k) {
   return scene.objects[k].kinematic ? static_cast<std::int64_t>(s.triangles / 10) : static_cast<std::int64_t>(s.tets);
 }
 
+namespace {
+// A split object's force work is shared by the ranks that hold it (split_forces.hpp):
+// its owner carries about one share of it.
+std::int64_t shared_work(const Scene& scene, std::size_t k, int nranks) {
+  const std::int64_t w = static_work(scene, k);
+  return split_candidate(scene, k, nranks) ? w / nranks : w;
+}
+}  // namespace
+
 std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector<int>& part,
                                            const std::vector<double>& rank_seconds,
                                            const std::vector<std::int64_t>& contacts) {
@@ -26,7 +36,8 @@ std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector
   if (part.size() != no) throw RuntimeFailure("measured_weights: the partition has the wrong size");
   if (!contacts.empty() && contacts.size() != no) throw RuntimeFailure("measured_weights: the contacts have the wrong size");
   std::vector<std::int64_t> w(no);
-  for (std::size_t k = 0; k < no; ++k) w[k] = static_work(scene, k) + 1;
+  const int nranks = std::max(1, static_cast<int>(rank_seconds.size()));
+  for (std::size_t k = 0; k < no; ++k) w[k] = shared_work(scene, k, nranks) + 1;
   bool measured = !rank_seconds.empty();
   for (double t : rank_seconds) measured = measured && std::isfinite(t) && t > 0;
   if (!measured) return w;
@@ -131,7 +142,7 @@ std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes, int nr
   PartitionInput in;
   in.weight = std::move(weights);
   for (std::size_t k = 0; k < no; ++k) {
-    if (in.weight.size() < no) in.weight.push_back(object_work(scene, k));
+    if (in.weight.size() < no) in.weight.push_back(shared_work(scene, k, nranks));
     for (int d = 0; d < 3; ++d)
       if (!std::isfinite(boxes[k].lo[d]) || !std::isfinite(boxes[k].hi[d]) || !(boxes[k].lo[d] <= boxes[k].hi[d]))
         boxes[k].lo[d] = boxes[k].hi[d] = 0;  // a blown-up object

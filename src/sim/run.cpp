@@ -419,6 +419,8 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
   summary.last_checkpoint = guard.last_checkpoint();
   summary.ghost_rebuilds = simulator.ghost_rebuilds() - rebuilds0;
   summary.repartitions = simulator.repartitions() - repartitions0;
+  summary.split_objects = simulator.split_objects();
+  summary.split_ranks = simulator.split_ranks();
   if (stop_signal != 0) summary.stopped_by = signal_name(stop_signal);
   return summary;
 }

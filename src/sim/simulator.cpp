@@ -22,6 +22,7 @@
 #include "softcontact/mpi_util.hpp"
 #include "softcontact/implicit_euler.hpp"
 #include "softcontact/motion.hpp"
+#include "softcontact/split_forces.hpp"
 #include "softcontact/stepper.hpp"
 #include "softcontact/integrator.hpp"
 
@@ -42,12 +43,14 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
   collision_settings_ = collision_settings_for(scene, mean_edge);
   ghosts_ = std::make_unique<GhostSet>(comm, scene_, collision_settings_.cell_size);
   drop_unneeded_meshes();  // the ghosts' meshes are made again as the ghost set takes them
+  split_candidates_ = split_candidates(scene_, nranks_);
   build_components();
   rebuild_ghosts(true);
   core_->initial_overlaps(initial_overlaps_, initial_overlap_depth_);
   MPI_Allreduce(MPI_IN_PLACE, &initial_overlaps_, 1, MPI_INT64_T, MPI_SUM, comm_);
   MPI_Allreduce(MPI_IN_PLACE, &initial_overlap_depth_, 1, MPI_DOUBLE, MPI_MAX, comm_);
-  core_->start();
+  prepare_split();
+  core_->start(ghosts_->exchange());
   ghosts_->update(world_.x_prev.data());
 }
 
@@ -57,6 +60,25 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
 void Simulator::build_components() {
   core_.reset();  // the old implicit solver goes before the new one is made
   core_ = std::make_unique<SerialStepper>(scene_, world_, collision_settings_);
+  split_dirty_ = true;
+}
+
+// Objects split for their forces (split_forces.hpp): every candidate is cut into one part
+// per rank (METIS with a fixed seed on the object's dual graph, computed by every rank
+// alike and kept), the owner's part being its own. The plan depends only on the scene,
+// the rank count and the owners: it is made again after a migration.
+void Simulator::prepare_split() {
+  if (split_candidates_.empty() || !ghosts_->active() || !split_dirty_) return;
+  std::vector<SplitObject> plan;
+  for (int k : split_candidates_) {
+    std::vector<std::int32_t>& parts = split_parts_[k];
+    if (parts.empty()) parts = split_tet_parts(scene_.view_mesh(static_cast<std::size_t>(k)).get(), nranks_);
+    plan.push_back({k, partition_[static_cast<std::size_t>(k)], parts});
+  }
+  core_->set_split(std::make_unique<SplitForces>(scene_, world_, std::move(plan)));
+  split_dirty_ = false;
+  split_count_ = static_cast<int>(split_candidates_.size());
+  split_ranks_ = nranks_;
 }
 
 std::vector<Box> Simulator::current_boxes() { return object_boxes(comm_, scene_, world_); }
@@ -197,10 +219,26 @@ double timed_phase(PetscLogEvent PhaseEvents::*event, F&& f) {
 }
 }  // namespace
 
+// With split objects the phase includes the exchange of their parts' forces: its wall
+// time is communication, its CPU time not work (a rank waiting for another's part).
 void Simulator::forces_phase() {
+  const double t0 = MPI_Wtime();
+  prepare_split();  // a new plan when the ghosts changed (collective): communication
+  times_.comm += MPI_Wtime() - t0;
   const double cpu = process_cpu_seconds();
-  times_.forces += timed_phase(&PhaseEvents::forces, [this] { core_->forces(); });
-  const double used = process_cpu_seconds() - cpu;
+  double wait_wall = 0, wait_cpu = 0;
+  const double wall = timed_phase(&PhaseEvents::forces, [&] {
+    const SplitForces* split = core_->split();
+    const double w0 = split ? split->exchange_wall_seconds() : 0, c0 = split ? split->exchange_cpu_seconds() : 0;
+    core_->forces(ghosts_->exchange());
+    if (split) {
+      wait_wall = split->exchange_wall_seconds() - w0;
+      wait_cpu = split->exchange_cpu_seconds() - c0;
+    }
+  });
+  times_.forces += wall - wait_wall;
+  times_.comm += wait_wall;
+  const double used = process_cpu_seconds() - cpu - wait_cpu;
   work_seconds_ += used;
   times_.work_cpu += used;
 }

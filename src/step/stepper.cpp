@@ -9,6 +9,8 @@
 
 #include "softcontact/exchange.hpp"
 #include "softcontact/motion.hpp"
+#include "softcontact/forces.hpp"
+#include "softcontact/split_forces.hpp"
 
 namespace softcontact {
 
@@ -119,9 +121,14 @@ void SerialStepper::make_detector() {
 
 void SerialStepper::resize() { f_.resize(3 * world_.n_local(), 0.0); }
 
-void SerialStepper::start() {
-  motion_->forces(world_, f_);
+void SerialStepper::start(NeighbourExchange* exchange) {
+  motion_->forces(world_, f_, split_.get(), exchange);
   motion_->start(world_, f_);
+}
+
+void SerialStepper::set_split(std::unique_ptr<SplitForces> split) {
+  split_ = std::move(split);
+  motion_->elastic().exclude_objects(world_, split_ ? split_->owned_objects() : std::vector<int>{});
 }
 
 // One step on one rank (docs/architecture.md, "One step").
@@ -132,7 +139,7 @@ void SerialStepper::step(double t) {
   contact_response(nullptr);       // contact forces: x^{t+h} and v^{t+h} of the colliding points
 }
 
-void SerialStepper::forces() { motion_->forces(world_, f_); }
+void SerialStepper::forces(NeighbourExchange* exchange) { motion_->forces(world_, f_, split_.get(), exchange); }
 
 void SerialStepper::unconstrained_motion(double t) { motion_->advance(world_, f_, t); }
 

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdint>
@@ -14,6 +15,7 @@
 
 #include "softcontact/error.hpp"
 #include "softcontact/partition.hpp"
+#include "softcontact/primitives.hpp"
 
 using namespace softcontact;
 
@@ -290,4 +292,57 @@ TEST(Partition, RejectsMalformedInput) {
   bad.reach = -1;
   EXPECT_THROW(partition_objects(bad, 2), RuntimeFailure);
   EXPECT_THROW(partition_quality(in, std::vector<int>(10, 2), 2), RuntimeFailure);
+}
+
+// The tets of one object in parts (objects split for their forces, split_forces.hpp):
+// every tet in a part in range, every part used and within 5% of an even share (METIS'
+// default imbalance tolerance is 3%), the same parts on every call (every rank computes
+// them itself), and a cut that is a small fraction of the faces: the vertices on a cut
+// are the ones whose corner forces travel one by one. Reference: the interior faces
+// counted by brute force (sorted corner triples shared by two tets).
+TEST(SplitTetParts, BalancedDeterministicWithASmallCut) {
+  const TetMesh m = make_box(1, 1, 0.5, 12, 12, 6);
+  const std::size_t nt = m.num_tets();
+  ASSERT_GT(nt, std::size_t{4000});
+  std::vector<std::array<index_t, 3>> faces;
+  std::vector<std::size_t> face_tet;
+  for (std::size_t t = 0; t < nt; ++t)
+    for (int skip = 0; skip < 4; ++skip) {
+      std::array<index_t, 3> f{};
+      int k = 0;
+      for (int c = 0; c < 4; ++c)
+        if (c != skip) f[static_cast<std::size_t>(k++)] = m.tets[4 * t + static_cast<std::size_t>(c)];
+      std::sort(f.begin(), f.end());
+      faces.push_back(f);
+      face_tet.push_back(t);
+    }
+  std::vector<std::size_t> order(faces.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return faces[a] < faces[b]; });
+  for (const int nparts : {1, 2, 3, 4, 7}) {
+    const std::vector<std::int32_t> part = split_tet_parts(m, nparts);
+    ASSERT_EQ(part.size(), nt);
+    EXPECT_EQ(split_tet_parts(m, nparts), part) << "not deterministic";
+    std::vector<std::size_t> size(static_cast<std::size_t>(nparts), 0);
+    for (std::int32_t p : part) {
+      ASSERT_GE(p, 0);
+      ASSERT_LT(p, nparts);
+      ++size[static_cast<std::size_t>(p)];
+    }
+    const double share = static_cast<double>(nt) / nparts;
+    for (std::size_t s : size) {
+      EXPECT_GT(s, 0u) << nparts << " parts";
+      EXPECT_LE(static_cast<double>(s), 1.05 * share) << nparts << " parts";
+    }
+    std::size_t interior = 0, cut = 0;
+    for (std::size_t k = 0; k + 1 < order.size(); ++k)
+      if (faces[order[k]] == faces[order[k + 1]]) {
+        ++interior;
+        cut += part[face_tet[order[k]]] != part[face_tet[order[k + 1]]] ? 1 : 0;
+      }
+    ASSERT_GT(interior, nt);
+    if (nparts == 1) EXPECT_EQ(cut, 0u);
+    else EXPECT_LT(static_cast<double>(cut), 0.1 * static_cast<double>(interior)) << nparts << " parts";
+    std::printf("[measured] %d parts: cut %zu of %zu interior faces\n", nparts, cut, interior);
+  }
 }

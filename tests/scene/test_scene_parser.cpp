@@ -8,6 +8,7 @@
 #include "softcontact/error.hpp"
 #include "softcontact/forces.hpp"
 #include "softcontact/scene.hpp"
+#include "softcontact/split_forces.hpp"
 #include "softcontact/world.hpp"
 
 using namespace softcontact;
@@ -423,6 +424,20 @@ TEST(SceneParser, ContactSwitchesDefaultOffAndAreChecked) {
   const Scene on = load_scene_from_string(scene_with(kBox, "  dt: auto\n  steps: 10\n  mutual_pairs: true\n"), "scene.yaml");
   EXPECT_TRUE(on.sim.mutual_pairs);
   expect_error(scene_with(kBox, "  dt: auto\n  steps: 10\n  mutual_pairs: maybe\n"), {"scene.yaml:4:", "'mutual_pairs'"});
+}
+
+// Objects split for their forces (split_forces.hpp): on by default, off when asked, a bad
+// value named with its line; split_candidate follows it.
+TEST(SceneParser, SplitObjectsDefaultsOnAndIsChecked) {
+  const Scene on = load_scene_from_string(scene_with(kBox), "scene.yaml");
+  EXPECT_TRUE(on.sim.split_objects);
+  const Scene off = load_scene_from_string(scene_with(kBox, "  dt: auto\n  steps: 10\n  split_objects: false\n"), "scene.yaml");
+  EXPECT_FALSE(off.sim.split_objects);
+  // The one object is all of the scene's tets: more than a share on 2 ranks, not on 1.
+  EXPECT_TRUE(split_candidate(on, 0, 2));
+  EXPECT_FALSE(split_candidate(on, 0, 1));
+  EXPECT_FALSE(split_candidate(off, 0, 2));
+  expect_error(scene_with(kBox, "  dt: auto\n  steps: 10\n  split_objects: sometimes\n"), {"scene.yaml:4:", "'split_objects'"});
 }
 
 TEST(SceneParser, ContactClosureIsLocalOrCoupled) {

@@ -12,6 +12,7 @@
 #include <cstring>
 #include <random>
 #include <filesystem>
+#include <map>
 #include <sstream>
 
 #include <unistd.h>
@@ -20,6 +21,7 @@
 #include "softcontact/mpi_util.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/simulator.hpp"
+#include "softcontact/split_forces.hpp"
 #include "softcontact/stepper.hpp"
 #include "output_compare.hpp"
 
@@ -75,32 +77,37 @@ Snapshot gather(MPI_Comm comm, Simulator& sim) {
   return s;
 }
 
+const Scene& soft_floor() {
+  static const Scene s = load_scene(std::string(SOFTCONTACT_TEST_DATA) + "/scenes/soft_floor.yaml");
+  return s;
+}
+
 // The reference: rank 0 alone, one thread, a snapshot every kEvery steps.
-const std::vector<Snapshot>& reference() {
-  static std::vector<Snapshot> ref;
-  static bool done = false;
-  if (!done) {
-    if (comm_rank(MPI_COMM_WORLD) == 0) {
-      omp_set_num_threads(1);
-      Simulator sim(MPI_COMM_SELF, pile());
-      for (int s = 1; s <= kSteps; ++s) {
-        sim.step();
-        if (s % kEvery == 0) ref.push_back(gather(MPI_COMM_SELF, sim));
-      }
+const std::vector<Snapshot>& reference(const Scene& scene = pile()) {
+  static std::map<const Scene*, std::vector<Snapshot>> refs;
+  const auto found = refs.find(&scene);
+  if (found != refs.end()) return found->second;
+  std::vector<Snapshot>& ref = refs[&scene];
+  if (comm_rank(MPI_COMM_WORLD) == 0) {
+    omp_set_num_threads(1);
+    Simulator sim(MPI_COMM_SELF, scene);
+    for (int s = 1; s <= kSteps; ++s) {
+      sim.step();
+      if (s % kEvery == 0) ref.push_back(gather(MPI_COMM_SELF, sim));
     }
-    done = true;
   }
   return ref;
 }
 
-// Runs the pile on every rank with `threads` threads and compares each snapshot with the
-// reference; `between(sim, step)` may act on the simulator after each step.
+// Runs `scene` (the pile unless given) on every rank with `threads` threads and compares
+// each snapshot with the reference; `between(sim, step)` may act on the simulator after
+// each step.
 template <class F>
-void expect_identical(int threads, F&& between, std::int64_t* cross_out = nullptr) {
-  const std::vector<Snapshot>& ref = reference();
+void expect_identical(int threads, F&& between, std::int64_t* cross_out = nullptr, const Scene& scene = pile()) {
+  const std::vector<Snapshot>& ref = reference(scene);
   MPI_Barrier(MPI_COMM_WORLD);
   omp_set_num_threads(threads);
-  Simulator sim(MPI_COMM_WORLD, pile());
+  Simulator sim(MPI_COMM_WORLD, scene);
   std::int64_t cross = 0;
   std::size_t k = 0;
   for (int s = 1; s <= kSteps; ++s) {
@@ -254,6 +261,36 @@ TEST(Distributed, RandomPlacementOverRanksIsBitwiseOneRanks) {
     EXPECT_EQ(shared.shape(k).box.lo, b.lo) << one.objects[k].name;
     EXPECT_EQ(shared.shape(k).box.hi, b.hi) << one.objects[k].name;
     EXPECT_EQ(shared.view_mesh(k).get().points, ref.points) << one.objects[k].name;
+  }
+}
+
+// A soft floor holding more than half of the tets (tests/data/scenes/soft_floor.yaml):
+// on 2 to 4 ranks its forces are shared by every rank (split_forces.hpp), each rank
+// evaluating a METIS part of its tets, and the owner folding the corner forces in tet
+// order. Positions and contact forces must be one rank's to the bit, every 10 steps, also
+// across a migration of every object to the next rank (the floor changes owner, and its
+// parts are evaluated by other ranks) and with two threads per rank.
+TEST(Distributed, SoftFloorSplitOverRanksIsBitwiseOneRanks) {
+  const int n = comm_size(MPI_COMM_WORLD);
+  EXPECT_EQ(split_candidates(soft_floor(), n), n > 1 ? std::vector<int>{0} : std::vector<int>{});
+  for (const int threads : {1, 2}) {
+    SCOPED_TRACE(std::to_string(threads) + " thread(s) per rank");
+    int split_steps = 0, migrations = 0;
+    expect_identical(
+        threads,
+        [&](Simulator& sim, int s) {
+          // Every rank holds the floor (its owner, or a ghost under the balls): all share it.
+          if (sim.split_objects() == 1 && sim.split_ranks() == n) ++split_steps;
+          if (s == 55 && n > 1) {
+            std::vector<int> next = sim.partition();
+            for (int& r : next) r = (r + 1) % n;
+            sim.migrate(next);
+            ++migrations;
+          }
+        },
+        nullptr, soft_floor());
+    EXPECT_EQ(split_steps, n > 1 ? kSteps : 0) << "the floor was not split at every step";
+    EXPECT_EQ(migrations, n > 1 ? 1 : 0);
   }
 }
 

@@ -1,0 +1,87 @@
+#pragma once
+// Objects split over ranks for their internal forces (docs/architecture.md, "Objects
+// split for their forces"). An object with more tets than an even share of the scene's
+// (a soft floor under a pile, a membrane) would set the pace of the rank that owns it.
+// Its tets are cut into one part per rank (METIS on the object's dual graph); each rank
+// evaluates its part's tets at the positions (and velocities) the owner sends it, and
+// sends the owner, per vertex, either the sum of its corner forces (a vertex whose tets
+// are all in the part) or each corner force (a vertex on a cut). The owner folds every
+// vertex's corner forces in ascending tet global id, as ElasticForces::add_forces does on
+// one rank, so the forces, and every result after them, are bitwise those of one rank.
+//
+// No MPI here: the messages go through NeighbourExchange::exchange_with. Ownership,
+// state, detection, contact, output and checkpoints stay with the owner; only the force
+// work is shared. Explicit integrators only (implicit Euler's linear system is the
+// owner's).
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "softcontact/scene.hpp"
+#include "softcontact/world.hpp"
+
+namespace softcontact {
+
+class ElasticForces;
+class NeighbourExchange;
+
+/// Whether object k's internal forces are shared over ranks on `nranks` ranks:
+/// `simulation.split_objects` on, an explicit integrator, a deformable object with more
+/// tets than an even share of the scene's (tets * nranks > all tets), nranks > 1.
+bool split_candidate(const Scene& scene, std::size_t k, int nranks);
+/// Every split candidate, ascending.
+std::vector<int> split_candidates(const Scene& scene, int nranks);
+
+/// One split object: its owner and the part (= the rank evaluating it) of each of its tets.
+struct SplitObject {
+  int object = 0;
+  int owner = 0;
+  std::vector<std::int32_t> tet_part;   ///< per object tet (object-local order), in [0, ranks)
+};
+
+class SplitForces {
+public:
+  /// `plan`: every split object (the same list on every rank), ascending. Builds this
+  /// rank's part of each (its tets' rest data, from the scene's mesh, made for the
+  /// purpose when this rank does not hold it) and, for the objects it owns, the merge
+  /// (each vertex's incident tets and their parts, each part's vertices).
+  SplitForces(const Scene& scene, const World& w, std::vector<SplitObject> plan);
+  ~SplitForces();
+  SplitForces(const SplitForces&) = delete;
+  SplitForces& operator=(const SplitForces&) = delete;
+
+  /// The split objects this rank owns (their forces come from add(), not ElasticForces).
+  const std::vector<int>& owned_objects() const { return owned_; }
+  /// Sends each part the positions (and, for the stiffness damping, the velocities) of
+  /// its vertices, evaluates this rank's parts, sends their corner forces to the owners,
+  /// and adds the owned split objects' internal forces (and -alpha m v) to f. Two
+  /// exchanges with the peers (the ranks this rank shares a split object with),
+  /// collective over them; every rank of a run with a split object calls it.
+  void add(const World& w, std::vector<double>& f, bool damping, NeighbourExchange* exchange);
+
+  /// Doubles this rank has sent so far (states to parts, forces to owners).
+  std::int64_t doubles_sent() const { return doubles_sent_; }
+  /// Tets this rank evaluates for objects it does not own.
+  std::int64_t helped_tets() const { return helped_tets_; }
+  /// Wall and process CPU seconds spent in add()'s exchanges so far (waiting for the
+  /// other parts is communication, not force work: the rebalance must not charge it).
+  double exchange_wall_seconds() const { return exchange_wall_; }
+  double exchange_cpu_seconds() const { return exchange_cpu_; }
+
+private:
+  struct Part;
+  struct Merge;
+  std::size_t peer_index(int r, int object) const;
+  void timed_exchange(NeighbourExchange* exchange, const std::vector<std::vector<char>>& send,
+                      std::vector<std::vector<double>>& recv);
+
+  std::vector<std::unique_ptr<Part>> parts_;    // ascending object
+  std::vector<std::unique_ptr<Merge>> merges_;  // ascending object: the owned split objects
+  std::vector<int> owned_;
+  std::vector<int> peers_;                      // ascending
+  std::int64_t doubles_sent_ = 0;
+  std::int64_t helped_tets_ = 0;
+  double exchange_wall_ = 0, exchange_cpu_ = 0;
+};
+
+}  // namespace softcontact

@@ -1,0 +1,336 @@
+// Objects split over ranks for their internal forces (split_forces.hpp).
+#include "softcontact/split_forces.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <ctime>
+#include <string>
+
+#include "softcontact/error.hpp"
+#include "softcontact/exchange.hpp"
+#include "softcontact/forces.hpp"
+
+namespace softcontact {
+
+bool split_candidate(const Scene& scene, std::size_t k, int nranks) {
+  if (nranks <= 1 || !scene.sim.split_objects || scene.sim.integrator == IntegratorKind::implicit_euler ||
+      scene.objects[k].kinematic)
+    return false;
+  return static_cast<double>(scene.shape(k).tets) * nranks > static_cast<double>(scene.num_tets());
+}
+
+std::vector<int> split_candidates(const Scene& scene, int nranks) {
+  std::vector<int> out;
+  for (std::size_t k = 0; k < scene.objects.size(); ++k)
+    if (split_candidate(scene, k, nranks)) out.push_back(static_cast<int>(k));
+  return out;
+}
+
+namespace {
+
+// Each vertex's incident tets (object-local ids, ascending): a CSR.
+struct Incidence {
+  std::vector<std::int64_t> offset;
+  std::vector<std::int32_t> tet;
+};
+
+Incidence incidence_of(const TetMesh& m) {
+  Incidence inc;
+  const std::size_t nv = m.num_vertices(), nt = m.num_tets();
+  inc.offset.assign(nv + 1, 0);
+  for (index_t v : m.tets) ++inc.offset[static_cast<std::size_t>(v) + 1];
+  for (std::size_t i = 0; i < nv; ++i) inc.offset[i + 1] += inc.offset[i];
+  inc.tet.resize(static_cast<std::size_t>(inc.offset.back()));
+  std::vector<std::int64_t> fill(inc.offset.begin(), inc.offset.end() - 1);
+  for (std::size_t t = 0; t < nt; ++t)
+    for (int c = 0; c < 4; ++c) inc.tet[static_cast<std::size_t>(fill[static_cast<std::size_t>(m.tets[4 * t + c])]++)] =
+        static_cast<std::int32_t>(t);
+  return inc;
+}
+
+// Per vertex: the part holding all its tets, or -1 when its tets lie in several parts
+// (or it has none).
+std::vector<std::int32_t> interior_parts(const Incidence& inc, const std::vector<std::int32_t>& tet_part) {
+  const std::size_t nv = inc.offset.size() - 1;
+  std::vector<std::int32_t> out(nv, -1);
+  for (std::size_t i = 0; i < nv; ++i) {
+    const std::int64_t b = inc.offset[i], e = inc.offset[i + 1];
+    if (b == e) continue;
+    const std::int32_t p = tet_part[static_cast<std::size_t>(inc.tet[static_cast<std::size_t>(b)])];
+    bool one = true;
+    for (std::int64_t k = b + 1; k < e && one; ++k) one = tet_part[static_cast<std::size_t>(inc.tet[static_cast<std::size_t>(k)])] == p;
+    if (one) out[i] = p;
+  }
+  return out;
+}
+
+double wall_seconds() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+
+// The process's CPU seconds, all threads (what the rebalance measures as work).
+double cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+
+}  // namespace
+
+// This rank's part of one split object: its tets as a World of their own (the part's
+// vertices, ascending global id), with the forces' rest data.
+struct SplitForces::Part {
+  int object = 0, owner = 0;
+  std::size_t first = 0;           // the owner's local row of the object's first vertex (owner only)
+  bool needs_v = false;            // stiffness damping: the part needs the velocities
+  World mini;
+  std::unique_ptr<ElasticForces> forces;
+  std::vector<std::int32_t> verts; // mini vertex -> object-local vertex
+  std::vector<char> fold;          // mini vertex: all its tets are in this part (send their sum)
+  std::vector<double> stream;      // this step's corner forces for the owner
+};
+
+// An owned split object: each vertex's incident tets and their parts, to fold the parts'
+// streams in tet order, and each part's vertices, to send it their state.
+struct SplitForces::Merge {
+  int object = 0;
+  std::size_t first = 0;           // local row of the object's first vertex
+  double alpha = 0;                // Rayleigh mass damping of its material
+  bool send_v = false;             // the material has stiffness damping
+  Incidence inc;
+  std::vector<std::int32_t> tet_part, interior;
+  std::vector<std::vector<std::int32_t>> part_vertices;  // per part (= rank): its vertices, ascending
+};
+
+SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitObject> plan) {
+  for (SplitObject& so : plan) {
+    const auto k = static_cast<std::size_t>(so.object);
+    const Scene::MeshView view = scene.view_mesh(k);
+    const TetMesh& m = view.get();
+    const ObjectLayout& L = w.layout[k];
+    if (so.tet_part.size() != m.num_tets() || L.rank != so.owner)
+      throw RuntimeFailure("SplitForces: the plan of object " + std::to_string(k) + " does not match the scene");
+    const bool own = so.owner == w.rank;
+    if (own && w.vertex_offset[k] < 0) throw RuntimeFailure("SplitForces: object " + std::to_string(k) + " is not here");
+    const bool needs_v = scene.materials[scene.objects[k].material].damping_stiffness > 0;
+    Incidence inc = incidence_of(m);
+    std::vector<std::int32_t> interior = interior_parts(inc, so.tet_part);
+    std::int32_t nparts = 0;
+    for (std::int32_t q : so.tet_part) nparts = std::max(nparts, q + 1);
+
+    auto p = std::make_unique<Part>();
+    p->object = so.object;
+    p->owner = so.owner;
+    p->needs_v = needs_v;
+    if (own) p->first = static_cast<std::size_t>(w.vertex_offset[k]);
+    std::vector<index_t> mini_of(m.num_vertices(), -1);
+    for (std::size_t t = 0; t < m.num_tets(); ++t)
+      if (so.tet_part[t] == w.rank)
+        for (int c = 0; c < 4; ++c) mini_of[static_cast<std::size_t>(m.tets[4 * t + c])] = 0;
+    World& mw = p->mini;
+    mw.layout = w.layout;
+    mw.rank = w.rank;
+    mw.owned_objects = {so.object};
+    for (std::size_t j = 0; j < m.num_vertices(); ++j) {
+      if (mini_of[j] < 0) continue;
+      mini_of[j] = static_cast<index_t>(p->verts.size());
+      p->verts.push_back(static_cast<std::int32_t>(j));
+      p->fold.push_back(interior[j] == w.rank ? 1 : 0);
+      mw.vertex_gid.push_back(L.vertex_begin + static_cast<gid_t>(j));
+      mw.vertex_object.push_back(so.object);
+      for (std::size_t d = 0; d < 3; ++d) mw.x.push_back(m.points[3 * j + d]);
+    }
+    const std::size_t nv = p->verts.size();
+    mw.v.assign(3 * nv, 0.0);
+    mw.x_prev = mw.x;
+    mw.mass.assign(nv, 0.0);      // (the merge on the owner applies -alpha m v)
+    mw.inv_mass.assign(nv, 0.0);
+    for (std::size_t t = 0; t < m.num_tets(); ++t) {
+      if (so.tet_part[t] != w.rank) continue;
+      const index_t* tet = &m.tets[4 * t];
+      for (int c = 0; c < 4; ++c) mw.tets.push_back(mini_of[static_cast<std::size_t>(tet[c])]);
+      mw.tet_gid.push_back(L.tet_begin + static_cast<gid_t>(t));
+      mw.tet_object.push_back(so.object);
+      // As build_world computes it, so that the rest data are the owner's to the bit.
+      mw.rest_volume.push_back(
+          signed_tet_volume(&m.points[3 * tet[0]], &m.points[3 * tet[1]], &m.points[3 * tet[2]], &m.points[3 * tet[3]]));
+    }
+    mw.n_owned = nv;
+    mw.m_owned = mw.tet_gid.size();
+    mw.vertex_offset.assign(w.vertex_offset.size(), -1);
+    mw.vertex_offset[k] = 0;
+    if (mw.m_owned > 0) p->forces = std::make_unique<ElasticForces>(scene, mw);
+    if (!own) {
+      helped_tets_ += static_cast<std::int64_t>(mw.m_owned);
+      if (mw.m_owned > 0) peers_.push_back(so.owner);
+    }
+    parts_.push_back(std::move(p));
+
+    if (own) {
+      auto g = std::make_unique<Merge>();
+      g->object = so.object;
+      g->first = static_cast<std::size_t>(w.vertex_offset[k]);
+      g->alpha = scene.materials[scene.objects[k].material].damping_mass;
+      g->send_v = needs_v;
+      g->part_vertices.resize(static_cast<std::size_t>(nparts));
+      std::vector<std::int32_t> seen(static_cast<std::size_t>(nparts), -1);  // the last vertex each part took
+      for (std::size_t j = 0; j + 1 < inc.offset.size(); ++j)
+        for (std::int64_t e = inc.offset[j]; e < inc.offset[j + 1]; ++e) {
+          const auto q = static_cast<std::size_t>(so.tet_part[static_cast<std::size_t>(inc.tet[static_cast<std::size_t>(e)])]);
+          if (seen[q] == static_cast<std::int32_t>(j)) continue;
+          seen[q] = static_cast<std::int32_t>(j);
+          g->part_vertices[q].push_back(static_cast<std::int32_t>(j));
+        }
+      for (std::size_t q = 0; q < g->part_vertices.size(); ++q)
+        if (static_cast<int>(q) != w.rank && !g->part_vertices[q].empty()) peers_.push_back(static_cast<int>(q));
+      g->inc = std::move(inc);
+      g->tet_part = std::move(so.tet_part);
+      g->interior = std::move(interior);
+      merges_.push_back(std::move(g));
+      owned_.push_back(so.object);
+    }
+  }
+  std::sort(peers_.begin(), peers_.end());
+  peers_.erase(std::unique(peers_.begin(), peers_.end()), peers_.end());
+}
+
+SplitForces::~SplitForces() = default;
+
+std::size_t SplitForces::peer_index(int r, int object) const {
+  const auto at = std::lower_bound(peers_.begin(), peers_.end(), r);
+  if (at == peers_.end() || *at != r)
+    throw RuntimeFailure("SplitForces: rank " + std::to_string(r) + ", which shares object " + std::to_string(object) +
+                         ", is not a peer");
+  return static_cast<std::size_t>(at - peers_.begin());
+}
+
+// One exchange of doubles with the peers; its wall and CPU time are the caller's wait.
+void SplitForces::timed_exchange(NeighbourExchange* exchange, const std::vector<std::vector<char>>& send,
+                                 std::vector<std::vector<double>>& recv) {
+  for (const std::vector<char>& b : send) doubles_sent_ += static_cast<std::int64_t>(b.size() / sizeof(double));
+  const double wall0 = wall_seconds(), cpu0 = cpu_seconds();
+  recv.clear();
+  for (const std::vector<char>& r : exchange->exchange_with(peers_, send)) recv.push_back(read_records<double>(r));
+  exchange_wall_ += wall_seconds() - wall0;
+  exchange_cpu_ += cpu_seconds() - cpu0;
+}
+
+void SplitForces::add(const World& w, std::vector<double>& f, bool damping, NeighbourExchange* exchange) {
+  if (!peers_.empty() && !exchange) throw RuntimeFailure("SplitForces: objects shared with other ranks need an exchange");
+  // 1. Each part's state from the owner: positions, and velocities where the stiffness
+  // damping needs them, of its vertices in ascending order.
+  std::vector<std::vector<double>> in;
+  if (exchange) {
+    std::vector<std::vector<char>> send(peers_.size());
+    for (const std::unique_ptr<Merge>& gp : merges_) {
+      const Merge& g = *gp;
+      for (std::size_t q = 0; q < g.part_vertices.size(); ++q) {
+        if (static_cast<int>(q) == w.rank || g.part_vertices[q].empty()) continue;
+        std::vector<char>& buf = send[peer_index(static_cast<int>(q), g.object)];
+        for (std::int32_t j : g.part_vertices[q]) append_records(buf, &w.x[3 * (g.first + static_cast<std::size_t>(j))], 3);
+        if (g.send_v && damping)
+          for (std::int32_t j : g.part_vertices[q])
+            append_records(buf, &w.v[3 * (g.first + static_cast<std::size_t>(j))], 3);
+      }
+    }
+    timed_exchange(exchange, send, in);
+  }
+  std::vector<std::size_t> read(in.size(), 0);  // doubles read from each peer
+  auto take = [&](std::size_t q, std::size_t n, int object, const char* what) {
+    if (in[q].size() < read[q] + n)
+      throw RuntimeFailure("SplitForces: rank " + std::to_string(peers_[q]) + " sent too few " + what + " for object " +
+                           std::to_string(object));
+    const double* at = in[q].data() + read[q];
+    read[q] += n;
+    return at;
+  };
+  // 2. This rank's parts at that state.
+  for (const std::unique_ptr<Part>& pp : parts_) {
+    Part& p = *pp;
+    p.stream.clear();
+    if (!p.forces) continue;
+    const std::size_t nv = p.verts.size();
+    if (p.owner == w.rank) {
+      for (std::size_t i = 0; i < nv; ++i)
+        for (std::size_t d = 0; d < 3; ++d) {
+          const std::size_t row = 3 * (p.first + static_cast<std::size_t>(p.verts[i])) + d;
+          p.mini.x[3 * i + d] = w.x[row];
+          p.mini.v[3 * i + d] = w.v[row];
+        }
+    } else {
+      const std::size_t q = peer_index(p.owner, p.object);
+      const double* x = take(q, 3 * nv, p.object, "positions");
+      std::copy(x, x + 3 * nv, p.mini.x.begin());
+      if (p.needs_v && damping) {
+        const double* v = take(q, 3 * nv, p.object, "velocities");
+        std::copy(v, v + 3 * nv, p.mini.v.begin());
+      }
+    }
+    p.forces->compute_tet_forces(p.mini, damping);
+    for (std::size_t i = 0; i < nv; ++i) p.forces->append_vertex_corners(i, p.fold[i] != 0, p.stream);
+  }
+  for (std::size_t q = 0; q < in.size(); ++q)
+    if (read[q] != in[q].size())
+      throw RuntimeFailure("SplitForces: rank " + std::to_string(peers_[q]) + " sent " + std::to_string(in[q].size()) +
+                           " state components, " + std::to_string(read[q]) + " used");
+  // 3. The parts of other ranks' objects to their owners, in ascending object order.
+  if (exchange) {
+    std::vector<std::vector<char>> send(peers_.size());
+    for (const std::unique_ptr<Part>& p : parts_)
+      if (p->owner != w.rank && !p->stream.empty())
+        append_records(send[peer_index(p->owner, p->object)], p->stream.data(), p->stream.size());
+    timed_exchange(exchange, send, in);
+  }
+  read.assign(in.size(), 0);
+  // 4. Each owned object's vertices: every corner force in ascending tet id, from the
+  // part that evaluated it (a vertex inside one part: that part's sum).
+  std::vector<double> c;
+  for (const std::unique_ptr<Merge>& gp : merges_) {
+    const Merge& g = *gp;
+    const std::size_t np = g.part_vertices.size();
+    std::vector<const double*> at(np, nullptr), end(np, nullptr);
+    for (std::size_t q = 0; q < np; ++q) {
+      if (static_cast<int>(q) == w.rank) {
+        const auto it = std::find_if(parts_.begin(), parts_.end(), [&](const auto& p) { return p->object == g.object; });
+        at[q] = (*it)->stream.data();
+        end[q] = at[q] + (*it)->stream.size();
+      } else if (!g.part_vertices[q].empty()) {
+        const std::size_t r = peer_index(static_cast<int>(q), g.object);
+        at[q] = in[r].data() + read[r];
+        end[q] = in[r].data() + in[r].size();
+      }
+    }
+    const std::vector<const double*> begin = at;
+    auto next = [&](std::size_t q) {
+      if (at[q] == nullptr || at[q] + 3 > end[q])
+        throw RuntimeFailure("SplitForces: part " + std::to_string(q) + " sent too few forces for object " +
+                             std::to_string(g.object));
+      c.insert(c.end(), at[q], at[q] + 3);
+      at[q] += 3;
+    };
+    const std::size_t nv = g.inc.offset.size() - 1;
+    for (std::size_t j = 0; j < nv; ++j) {
+      c.clear();
+      if (g.interior[j] >= 0) {
+        next(static_cast<std::size_t>(g.interior[j]));
+      } else {
+        for (std::int64_t e = g.inc.offset[j]; e < g.inc.offset[j + 1]; ++e)
+          next(static_cast<std::size_t>(g.tet_part[static_cast<std::size_t>(g.inc.tet[static_cast<std::size_t>(e)])]));
+      }
+      ElasticForces::add_vertex_force(w, f, damping, g.alpha, g.first + j, c.data(), c.size() / 3);
+    }
+    for (std::size_t q = 0; q < np; ++q) {
+      if (static_cast<int>(q) == w.rank) {
+        if (at[q] != end[q])
+          throw RuntimeFailure("SplitForces: this rank's part of object " + std::to_string(g.object) + " was not used up");
+      } else if (!g.part_vertices[q].empty()) {
+        read[peer_index(static_cast<int>(q), g.object)] += static_cast<std::size_t>(at[q] - begin[q]);
+      }
+    }
+  }
+  for (std::size_t q = 0; q < in.size(); ++q)
+    if (read[q] != in[q].size())
+      throw RuntimeFailure("SplitForces: rank " + std::to_string(peers_[q]) + " sent " + std::to_string(in[q].size()) +
+                           " force components, " + std::to_string(read[q]) + " used");
+}
+
+}  // namespace softcontact
