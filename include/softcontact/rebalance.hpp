@@ -81,15 +81,33 @@ struct RankWork {
 /// Whether `step` is one of the policy's checks (a positive multiple of check_every).
 bool rebalance_due(const RebalancePolicy& policy, std::int64_t step);
 
-/// At a step rebalance_due() names: when the work per rank is out of balance or too many
-/// collisions cross ranks, METIS partitions the current boxes with the measured weights
-/// (measured_weights of every rank's seconds) and the new parts are relabelled to keep
-/// objects where they are (rank 0 logs it). Returns
-/// true with `next` set when it repartitioned (`next` may equal `current`). Every rank
-/// takes the same decision. Collective.
+/// What the rebalance remembers between checks: the fraction of the collisions crossing
+/// ranks that the current partition achieved, measured over the steps after it was made.
+struct RebalanceHistory {
+  bool measure_cross = false;  ///< a repartition since the last check: this check measures what it achieved
+  double achieved_cross = 0;   ///< the cross-rank fraction of the current partition (0 before any)
+};
+
+/// Margin by which the cross-rank fraction must exceed what the current partition
+/// achieved before it triggers a repartition again.
+inline constexpr double kCrossRetryMargin = 0.1;
+
+/// The decision at a check, from the reduced figures (the same on every rank): the work
+/// imbalance (max / mean) above the policy's, or the cross-rank fraction above the
+/// policy's and above what the current partition achieved plus kCrossRetryMargin. A
+/// partition that cannot bring the fraction down (every body of a pile on one floor
+/// touches the floor's rank) is not redone for it at every check. The first check after
+/// a repartition records what it achieved (in `h`).
+bool rebalance_wanted(const RebalancePolicy& policy, double imbalance, double cross, RebalanceHistory& h);
+
+/// At a step rebalance_due() names: when rebalance_wanted(), METIS partitions the current
+/// boxes with the measured weights (measured_weights of every rank's seconds) and the new
+/// parts are relabelled to keep objects where they are (rank 0 logs it). Returns true
+/// with `next` set when it repartitioned (`next` may equal `current`). Every rank takes
+/// the same decision. Collective.
 bool rebalance(MPI_Comm comm, const Scene& scene, const World& w,
                const std::vector<int>& current, const RebalancePolicy& policy, std::int64_t step, const RankWork& work,
-               std::vector<int>& next);
+               std::vector<int>& next, RebalanceHistory& history);
 
 /// Moves every owned object whose rank changes from `current` to `next`, whole, with its
 /// state `now` (rows in w's owned order): returns the World of partition `next` (at the

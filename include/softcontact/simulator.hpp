@@ -177,6 +177,7 @@ private:
   CollisionSettings collision_settings_;
   std::unique_ptr<GhostSet> ghosts_;  // the parallel layer's ghost objects and halo (ghosts.hpp)
   RebalancePolicy rebalance_;
+  RebalanceHistory rebalance_history_;
   std::int64_t repartitions_ = 0, cross_collisions_ = 0;
   double work_seconds_ = 0;          // forces, detection and depth CPU seconds since the last rebalance check
   std::vector<std::int64_t> window_contacts_;  // per object: colliding surface vertices since then (this rank's records)

@@ -160,9 +160,19 @@ std::vector<int> initial_partition(const Scene& scene, int nranks) {
   return partition_at(scene, scene_boxes(scene), nranks);
 }
 
+bool rebalance_wanted(const RebalancePolicy& policy, double imbalance, double cross, RebalanceHistory& h) {
+  if (h.measure_cross) {
+    h.achieved_cross = cross;
+    h.measure_cross = false;
+  }
+  const bool by_work = imbalance > policy.max_imbalance;
+  const bool by_cross = cross > policy.max_cross_fraction && cross > h.achieved_cross + kCrossRetryMargin;
+  return by_work || by_cross;
+}
+
 bool rebalance(MPI_Comm comm, const Scene& scene, const World& w,
                const std::vector<int>& current, const RebalancePolicy& policy, std::int64_t step, const RankWork& work,
-               std::vector<int>& next) {
+               std::vector<int>& next, RebalanceHistory& history) {
   const int nranks = comm_size(comm);
   if (nranks == 1 || !rebalance_due(policy, step)) return false;
   double local[3] = {work.seconds, static_cast<double>(work.cross), static_cast<double>(work.collisions)};
@@ -172,7 +182,8 @@ bool rebalance(MPI_Comm comm, const Scene& scene, const World& w,
   const double imbalance = sum[0] > 0 ? mx / (sum[0] / nranks) : 1;
   const double cross = sum[2] > 0 ? sum[1] / sum[2] : 0;
   // Both figures are reduced, so every rank takes the same decision.
-  if (!(imbalance > policy.max_imbalance) && !(cross > policy.max_cross_fraction)) return false;
+  if (!rebalance_wanted(policy, imbalance, cross, history)) return false;
+  history.measure_cross = true;
   // Every rank's seconds (a gather copies them: the same bits everywhere), so every rank
   // computes the same weights and METIS the same parts.
   std::vector<std::int64_t> weights;

@@ -303,7 +303,7 @@ void Simulator::maybe_rebalance() {
   work.contacts.swap(window_contacts_);
   work_seconds_ = 0;
   std::vector<int> next;
-  if (!rebalance(comm_, scene_, world_, partition_, rebalance_, step_, work, next)) return;
+  if (!rebalance(comm_, scene_, world_, partition_, rebalance_, step_, work, next, rebalance_history_)) return;
   ++repartitions_;
   if (next != partition_) migrate(next);
 }

@@ -141,3 +141,30 @@ TEST(MeasuredWeights, ContactsFitTheirShareOfTheMeasuredSeconds) {
   const std::vector<std::int64_t> f = measured_weights(scene, part, {1.0, 1.0}, contacts);
   for (std::size_t k = 0; k < 16; ++k) EXPECT_EQ(f[k], 125000) << "cube " << k << ": b < 0 falls back to b = 0";
 }
+
+// The rebalance's decision (rebalance_wanted): the work imbalance triggers whenever it is
+// above the policy's; the cross-rank fraction triggers above the policy's only while it
+// exceeds what the current partition achieved (measured at the first check after a
+// repartition) by kCrossRetryMargin. A sequence of checks on a pile whose every body
+// touches one floor: the fraction stays at 0.6 to 0.9 whatever the partition.
+TEST(Rebalance, CrossFractionThePartitionCouldNotLowerDoesNotTriggerAgain) {
+  RebalancePolicy p;  // 1.25, 0.5
+  RebalanceHistory h;
+  EXPECT_TRUE(rebalance_wanted(p, 1.05, 0.92, h)) << "first check: 92 % crosses, no partition has tried";
+  h.measure_cross = true;  // (what rebalance() does when it repartitions)
+  EXPECT_FALSE(rebalance_wanted(p, 1.05, 0.62, h)) << "the new partition achieved 62 %";
+  EXPECT_DOUBLE_EQ(h.achieved_cross, 0.62);
+  EXPECT_FALSE(h.measure_cross);
+  EXPECT_FALSE(rebalance_wanted(p, 1.10, 0.71, h)) << "71 % is within the margin of 62 %";
+  EXPECT_TRUE(rebalance_wanted(p, 1.10, 0.73, h)) << "73 % exceeds 62 % by more than the margin";
+  h.measure_cross = true;
+  EXPECT_TRUE(rebalance_wanted(p, 1.30, 0.80, h)) << "the work imbalance triggers whatever the cross fraction";
+  EXPECT_DOUBLE_EQ(h.achieved_cross, 0.80);
+  h.measure_cross = true;
+  EXPECT_FALSE(rebalance_wanted(p, 1.00, 0.40, h)) << "under the policy's fraction";
+  EXPECT_TRUE(rebalance_wanted(p, 1.00, 0.55, h)) << "above the policy's and 15 points above the 40 % achieved";
+  // The policy's own threshold still applies when the partition achieved little.
+  RebalanceHistory fresh;
+  EXPECT_FALSE(rebalance_wanted(p, 1.0, 0.5, fresh));
+  EXPECT_TRUE(rebalance_wanted(p, 1.26, 0.0, fresh));
+}
