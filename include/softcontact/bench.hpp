@@ -24,6 +24,9 @@ struct BenchOptions {
   std::int64_t steps = 100;  ///< timed steps (> 0)
   std::int64_t warmup = 0;   ///< untimed steps before them (>= 0)
   bool quiet = false;        ///< no progress lines
+  /// Wall seconds this rank spent reading the scene (load_scene) before run_bench, from a
+  /// barrier: reported as the max over ranks (0: not measured).
+  double read_seconds = 0;
 };
 
 /// One timed step.
@@ -40,6 +43,14 @@ struct BenchStep {
   double other = 0;
 };
 
+/// One stage of the Simulator's construction: its wall seconds, max and min over the
+/// ranks (a wait at a collective inside the stage counts: a large max with a small min is
+/// ranks waiting for the slowest).
+struct SetupStage {
+  std::string name;
+  double max_seconds = 0, min_seconds = 0;
+};
+
 /// Median and mean over the timed steps of one quantity.
 struct Spread {
   double median = 0, mean = 0;
@@ -54,6 +65,9 @@ struct BenchResult {
   std::int64_t warmup = 0;
   std::vector<BenchStep> steps;  ///< the timed steps, identical on every rank
   double setup_seconds = 0;      ///< building the Simulator (max over ranks)
+  double read_seconds = 0;       ///< reading the scene before it (max over ranks; 0: not measured)
+  /// The Simulator's construction by stage (Simulator::setup_stages), max and min over ranks.
+  std::vector<SetupStage> setup_stages;
   double loop_seconds = 0;       ///< wall time of the timed steps, barrier to barrier
   double rss_max_mib = 0, rss_mean_mib = 0;  ///< peak resident memory per rank (ru_maxrss)
   std::string omp_wait_policy;   ///< the OMP_WAIT_POLICY environment variable, or "default"

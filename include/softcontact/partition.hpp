@@ -5,6 +5,7 @@
 // and few contacts cross ranks. Serial and deterministic: every rank computes the same
 // answer from the same (global) input, so nothing has to be communicated.
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "softcontact/box.hpp"
@@ -45,12 +46,29 @@ struct ObjectEdge {
 /// not O(n^2) unless the boxes really are all near each other along every axis.
 std::vector<ObjectEdge> object_graph_edges(const PartitionInput& in);
 
+/// How ranks share partition_objects' search for the smallest cut: of the kMetisCuts
+/// k-way runs (one seed each), this rank computes those c with c % parts == part, and
+/// `best` takes this rank's best (its cut, its candidate index c, its parts; a rank with
+/// none gives INT64_MAX, INT_MAX and no parts) and returns on every rank the parts of the
+/// best over the ranks: the smallest cut, then the lowest c (an MPI_Allreduce and a
+/// broadcast: rebalance.cpp). The result is the same as with parts = 1, where every
+/// candidate is computed here, and so the same on any rank count.
+struct CutSearch {
+  int part = 0;
+  int parts = 1;
+  std::function<std::vector<int>(std::int64_t cut, int candidate, std::vector<int> parts)> best;
+};
+
+/// The number of k-way runs partition_objects compares (seeds kMetisSeed + c, c < this).
+inline constexpr int kMetisCuts = 4;
+
 /// Objects -> parts 0..nparts-1, identical on every rank and every call.
 ///
 /// METIS_PartGraphKway on the object graph (edge-cut objective, default load tolerance
-/// ufactor 30, i.e. 1.03 plus the granularity of single objects, fixed
-/// METIS_OPTION_SEED, METIS_OPTION_NCUTS 4, C numbering, adjacency built in ascending
-/// object order). Recursive bisection (METIS_PartGraphRecursive) is not used, at any
+/// ufactor 30, i.e. 1.03 plus the granularity of single objects, C numbering, adjacency
+/// built in ascending object order), run kMetisCuts times with the seeds kMetisSeed + c
+/// and one cut each; the smallest cut wins (the lowest c on ties). `search` spreads the
+/// runs over the ranks (CutSearch); the answer does not depend on it. Recursive bisection (METIS_PartGraphRecursive) is not used, at any
 /// part count. Measured on random scenes of 100 objects, 2..8 parts, weights 1..1000:
 /// the better of one k-way and one recursive run cut 5% less than k-way alone, the best
 /// of four k-way runs 9% less; recursive bisection balanced worse from 5 parts up
@@ -76,7 +94,7 @@ std::vector<ObjectEdge> object_graph_edges(const PartitionInput& in);
 /// Weights whose total would overflow METIS' idx_t are scaled down (each kept >= 1).
 /// Throws RuntimeFailure for malformed input (sizes, negative weight, non-finite or
 /// inverted box, nparts < 1) or when METIS fails.
-std::vector<int> partition_objects(const PartitionInput& in, int nparts);
+std::vector<int> partition_objects(const PartitionInput& in, int nparts, const CutSearch& search = {});
 
 /// The tets of one mesh in `nparts` parts (objects split over ranks, split_forces.hpp):
 /// METIS_PartMeshDual on the tets' dual graph (tets sharing a face), fixed seed, so every

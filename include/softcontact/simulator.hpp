@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "softcontact/collision.hpp"
@@ -92,6 +93,10 @@ public:
   /// Wall time per phase accumulated since the last call, and the steps it covers.
   PhaseTimes take_times(std::int64_t& steps);
 
+  /// The construction's stages, in order, with this rank's wall seconds in each (waits
+  /// at the collectives inside a stage included): where the set-up time goes.
+  const std::vector<std::pair<const char*, double>>& setup_stages() const { return setup_stages_; }
+
   /// Collisions already present at the initial positions (objects that start
   /// overlapping): the first step pushes them apart at (depth / dt).
   std::int64_t initial_overlaps() const { return initial_overlaps_; }
@@ -150,6 +155,7 @@ public:
   std::int64_t cross_rank_collisions() const { return cross_collisions_; }
 
 private:
+  std::vector<std::pair<const char*, double>> setup_stages_;
   // The phases of step(), in order.
   void forces_phase();
   void unconstrained_motion();

@@ -28,7 +28,10 @@ class NeighbourExchange;
 /// Whether object k's internal forces are shared over ranks on `nranks` ranks:
 /// `simulation.split_objects` on, an explicit integrator, a deformable object with more
 /// tets than an even share of the scene's (tets * nranks > all tets), nranks > 1.
+/// One object's test sums the scene's tets: a loop over objects takes split_mask.
 bool split_candidate(const Scene& scene, std::size_t k, int nranks);
+/// split_candidate of every object (1: a candidate), with the scene's tets summed once.
+std::vector<char> split_mask(const Scene& scene, int nranks);
 /// Every split candidate, ascending.
 std::vector<int> split_candidates(const Scene& scene, int nranks);
 

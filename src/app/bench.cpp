@@ -228,8 +228,17 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
   double loop = r.loop_seconds;
   MPI_Allreduce(MPI_IN_PLACE, &loop, 1, MPI_DOUBLE, MPI_MAX, comm);
   r.loop_seconds = loop;
-  MPI_Allreduce(MPI_IN_PLACE, &setup, 1, MPI_DOUBLE, MPI_MAX, comm);
-  r.setup_seconds = setup;
+  double setup_read[2] = {setup, opt.read_seconds};
+  MPI_Allreduce(MPI_IN_PLACE, setup_read, 2, MPI_DOUBLE, MPI_MAX, comm);
+  r.setup_seconds = setup_read[0];
+  r.read_seconds = setup_read[1];
+  std::vector<double> stage_max, stage_min;  // the same stages on every rank, in the same order
+  for (const auto& st : sim.setup_stages()) stage_max.push_back(st.second);
+  stage_min = stage_max;
+  MPI_Allreduce(MPI_IN_PLACE, stage_max.data(), static_cast<int>(stage_max.size()), MPI_DOUBLE, MPI_MAX, comm);
+  MPI_Allreduce(MPI_IN_PLACE, stage_min.data(), static_cast<int>(stage_min.size()), MPI_DOUBLE, MPI_MIN, comm);
+  for (std::size_t i = 0; i < stage_max.size(); ++i)
+    r.setup_stages.push_back({sim.setup_stages()[i].first, stage_max[i], stage_min[i]});
   const double rss = peak_rss_mib();
   double rss_max = rss, rss_sum = rss;
   MPI_Allreduce(MPI_IN_PLACE, &rss_max, 1, MPI_DOUBLE, MPI_MAX, comm);
@@ -260,7 +269,15 @@ void print_bench_table(std::ostream& out, const BenchResult& r) {
       << " vertices, " << r.tets << " tets; dt = " << num(r.dt, 4) << " s; OMP_WAIT_POLICY "
       << r.omp_wait_policy << "\n"
       << "  " << r.steps.size() << " timed steps (t = " << num(first_t, 4) << " .. " << num(last_t, 4) << " s) after "
-      << r.warmup << " warm-up steps; set-up " << fixed(r.setup_seconds, 2) << " s\n"
+      << r.warmup << " warm-up steps; set-up " << fixed(r.setup_seconds, 2) << " s";
+  if (r.read_seconds > 0) out << " after reading the scene in " << fixed(r.read_seconds, 2) << " s";
+  out << "\n  set-up by stage (ms, max / min over ranks):";
+  for (std::size_t i = 0; i < r.setup_stages.size(); ++i) {
+    const SetupStage& st = r.setup_stages[i];
+    out << (i ? ", " : " ") << st.name << " " << fixed(1e3 * st.max_seconds, 1);
+    if (r.ranks > 1) out << " / " << fixed(1e3 * st.min_seconds, 1);
+  }
+  out << "\n"
       << "  colliding points per step: median " << num(r.collisions.median, 7) << ", mean "
       << fixed(r.collisions.mean, 1) << ", max " << r.collisions_max << "\n\n";
   constexpr int w = 20;

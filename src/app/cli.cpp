@@ -431,7 +431,10 @@ int cmd_bench(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err
   const std::string per_step = a.values.count("--per-step") ? a.values.at("--per-step") : "";
   if (a.values.count("--csv") && csv.empty()) usage_error("--csv expects a file name", "bench");
   if (a.values.count("--per-step") && per_step.empty()) usage_error("--per-step expects a file name", "bench");
+  MPI_Barrier(comm);
+  const double t0 = MPI_Wtime();
   const Scene s = load_scene(scene_argument(a, "bench"), copies_made_on_demand(comm));
+  opt.read_seconds = MPI_Wtime() - t0;
   const int rank = comm_rank(comm);
   if (rank == 0) print_warnings(s, err);
   BenchFiles files(comm, csv, per_step);

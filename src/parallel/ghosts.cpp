@@ -76,9 +76,24 @@ bool GhostSet::rebuild(World& w, const std::vector<int>& partition, bool force) 
   if (nranks_ == 1) return force;
   const std::size_t no = scene_.objects.size();
   const std::vector<Box> box = object_boxes(comm_, scene_, w);
+  // The owned boxes' hull first: a box not within the skin of the hull is within the skin
+  // of no owned box (the test is monotone in the owned box), so only the objects near
+  // this rank's cost a loop over its own. Exact: the same set as without it, unless an
+  // owned box is not finite (then no hull: every object is tested against every box).
+  Box hull = Box::none();
+  bool finite = true;
+  for (int a : w.owned_objects) {
+    const Box& o = box[static_cast<std::size_t>(a)];
+    for (int d = 0; d < 3; ++d) {
+      finite = finite && std::isfinite(o.lo[d]) && std::isfinite(o.hi[d]);
+      hull.lo[d] = std::min(hull.lo[d], o.lo[d]);
+      hull.hi[d] = std::max(hull.hi[d], o.hi[d]);
+    }
+  }
   std::vector<int> ghosts;
   for (std::size_t b = 0; b < no; ++b) {
     if (partition[b] == rank_ || !(box[b].lo[0] <= box[b].hi[0])) continue;
+    if (finite && !hull.within(box[b], skin_)) continue;
     for (int a : w.owned_objects)
       if (box[static_cast<std::size_t>(a)].within(box[b], skin_)) {
         ghosts.push_back(static_cast<int>(b));

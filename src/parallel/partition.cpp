@@ -19,10 +19,9 @@ constexpr idx_t kMetisSeed = 20240607;
 // Total vertex weight handed to METIS stays below this, whatever idx_t's width: METIS
 // sums weights in idx_t and scales them by real_t (float) factors, so leave headroom.
 constexpr std::int64_t kMaxMetisWeight = std::int64_t{1} << 30;
-// METIS computes this many k-way partitions (different random matchings from the one
-// seed) and keeps the smallest cut: about 9% less cut than one, for 4x the time of a
-// step that takes milliseconds for 10^4 objects.
-constexpr idx_t kMetisCuts = 4;
+// kMetisCuts (partition.hpp) k-way partitions, seeds kMetisSeed + c, the smallest cut
+// kept: about 9% less cut than one, for 4x the time of a step that takes milliseconds for
+// 10^4 objects, unless the ranks share the runs (CutSearch).
 
 [[noreturn]] void fail(const std::string& what) { throw RuntimeFailure("partition_objects: " + what); }
 
@@ -122,16 +121,17 @@ const char* metis_status(int status) {
   }
 }
 
-std::vector<int> run_metis(Graph& g, int nparts) {
+// One k-way run with seed kMetisSeed + candidate; `cut` is its edge cut.
+std::vector<int> run_metis(Graph& g, int nparts, int candidate, std::int64_t& cut) {
   idx_t nvtxs = static_cast<idx_t>(g.vwgt.size());
   idx_t ncon = 1;
   idx_t np = nparts;
   idx_t objval = 0;
   idx_t options[METIS_NOPTIONS];
   METIS_SetDefaultOptions(options);
-  options[METIS_OPTION_SEED] = kMetisSeed;
+  options[METIS_OPTION_SEED] = kMetisSeed + candidate;
   options[METIS_OPTION_NUMBERING] = 0;
-  options[METIS_OPTION_NCUTS] = kMetisCuts;
+  options[METIS_OPTION_NCUTS] = 1;
   std::vector<idx_t> part(g.vwgt.size(), 0);
   const int status = METIS_PartGraphKway(&nvtxs, &ncon, g.xadj.data(), g.adjncy.data(), g.vwgt.data(), nullptr,
                                          g.adjwgt.data(), &np, nullptr, nullptr, options, &objval, part.data());
@@ -143,7 +143,31 @@ std::vector<int> run_metis(Graph& g, int nparts) {
     if (part[v] < 0 || part[v] >= np) fail("METIS returned part " + std::to_string(part[v]) + " out of range");
     out[v] = static_cast<int>(part[v]);
   }
+  cut = objval;
   return out;
+}
+
+// The smallest cut of the kMetisCuts runs (lowest candidate on ties), those of this rank
+// computed here, the winner over the ranks from search.best.
+std::vector<int> best_metis(Graph& g, int nparts, const CutSearch& search) {
+  const bool shared = search.parts > 1 && search.best;
+  std::int64_t best_cut = std::numeric_limits<std::int64_t>::max();
+  int best_c = std::numeric_limits<int>::max();
+  std::vector<int> best;
+  for (int c = 0; c < kMetisCuts; ++c) {
+    if (shared && c % search.parts != search.part) continue;
+    std::int64_t cut = 0;
+    std::vector<int> p = run_metis(g, nparts, c, cut);
+    if (cut < best_cut) {  // ascending c: a tie keeps the lower
+      best_cut = cut;
+      best_c = c;
+      best = std::move(p);
+    }
+  }
+  if (!shared) return best;
+  std::vector<int> chosen = search.best(best_cut, best_c, std::move(best));
+  if (chosen.size() != g.vwgt.size()) fail("the shared cut search returned " + std::to_string(chosen.size()) + " parts");
+  return chosen;
 }
 
 PartitionQuality quality(const PartitionInput& in, const std::vector<ObjectEdge>& edges, const std::vector<int>& part,
@@ -201,7 +225,7 @@ void fill_empty_parts(const PartitionInput& in, std::vector<int>& part, int npar
 // Objects `ids` (ascending) into parts [first, first + nparts) with METIS k-way on the
 // graph they induce; the identity when there are no more of them than parts.
 void metis_parts(const PartitionInput& in, const std::vector<std::int32_t>& ids, int first, int nparts,
-                 std::vector<int>& part) {
+                 std::vector<int>& part, const CutSearch& search) {
   if (nparts == 1 || ids.size() <= static_cast<std::size_t>(nparts)) {
     for (std::size_t k = 0; k < ids.size(); ++k) part[ids[k]] = first + (nparts == 1 ? 0 : static_cast<int>(k));
     return;
@@ -216,7 +240,7 @@ void metis_parts(const PartitionInput& in, const std::vector<std::int32_t>& ids,
   }
   const std::vector<ObjectEdge> edges = object_graph_edges(sub);
   Graph g = metis_graph(sub, edges);
-  std::vector<int> p = run_metis(g, nparts);
+  std::vector<int> p = best_metis(g, nparts, search);
   fill_empty_parts(sub, p, nparts);
   for (std::size_t k = 0; k < ids.size(); ++k) part[ids[k]] = first + p[k];
 }
@@ -254,7 +278,7 @@ std::vector<ObjectEdge> object_graph_edges(const PartitionInput& in) {
   return edges;
 }
 
-std::vector<int> partition_objects(const PartitionInput& in, int nparts) {
+std::vector<int> partition_objects(const PartitionInput& in, int nparts, const CutSearch& search) {
   validate(in);
   if (nparts < 1) fail("nparts must be >= 1, got " + std::to_string(nparts));
   const std::size_t n = in.weight.size();
@@ -290,7 +314,7 @@ std::vector<int> partition_objects(const PartitionInput& in, int nparts) {
   std::vector<std::int32_t> rest;
   for (std::size_t k = 0; k < n; ++k)
     if (!peeled[k]) rest.push_back(static_cast<std::int32_t>(k));
-  metis_parts(in, rest, next, nparts - next, part);
+  metis_parts(in, rest, next, nparts - next, part, search);
   return part;
 }
 

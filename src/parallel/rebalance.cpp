@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <iostream>
 
 #include "softcontact/error.hpp"
@@ -22,10 +23,10 @@ std::int64_t static_work(const Scene& scene, std::size_t k) {
 
 namespace {
 // A split object's force work is shared by the ranks that hold it (split_forces.hpp):
-// its owner carries about one share of it.
-std::int64_t shared_work(const Scene& scene, std::size_t k, int nranks) {
+// its owner carries about one share of it. `split` is split_mask(scene, nranks).
+std::int64_t shared_work(const Scene& scene, std::size_t k, int nranks, const std::vector<char>& split) {
   const std::int64_t w = static_work(scene, k);
-  return split_candidate(scene, k, nranks) ? w / nranks : w;
+  return split[k] ? w / nranks : w;
 }
 }  // namespace
 
@@ -37,7 +38,8 @@ std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector
   if (!contacts.empty() && contacts.size() != no) throw RuntimeFailure("measured_weights: the contacts have the wrong size");
   std::vector<std::int64_t> w(no);
   const int nranks = std::max(1, static_cast<int>(rank_seconds.size()));
-  for (std::size_t k = 0; k < no; ++k) w[k] = shared_work(scene, k, nranks) + 1;
+  const std::vector<char> split = split_mask(scene, nranks);
+  for (std::size_t k = 0; k < no; ++k) w[k] = shared_work(scene, k, nranks, split) + 1;
   bool measured = !rank_seconds.empty();
   for (double t : rank_seconds) measured = measured && std::isfinite(t) && t > 0;
   if (!measured) return w;
@@ -134,30 +136,52 @@ VertexState state_row(const StepState& s, std::size_t v) {
 }
 }  // namespace
 
+CutSearch shared_cut_search(MPI_Comm comm) {
+  CutSearch search;
+  if (comm == MPI_COMM_NULL || comm_size(comm) == 1) return search;
+  search.part = comm_rank(comm);
+  search.parts = comm_size(comm);
+  search.best = [comm, size = search.parts, rank = search.part](std::int64_t cut, int candidate, std::vector<int> parts) {
+    std::int64_t best_cut = cut;
+    MPI_Allreduce(MPI_IN_PLACE, &best_cut, 1, MPI_INT64_T, MPI_MIN, comm);
+    int best = cut == best_cut ? candidate : std::numeric_limits<int>::max();
+    MPI_Allreduce(MPI_IN_PLACE, &best, 1, MPI_INT, MPI_MIN, comm);
+    const int root = best % size;  // candidate c is computed by the rank c % size
+    long long n = rank == root ? static_cast<long long>(parts.size()) : 0;
+    MPI_Bcast(&n, 1, MPI_LONG_LONG, root, comm);
+    parts.resize(static_cast<std::size_t>(n));
+    MPI_Bcast(parts.data(), static_cast<int>(n), MPI_INT, root, comm);
+    return parts;
+  };
+  return search;
+}
+
 std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes, int nranks,
-                              std::vector<std::int64_t> weights) {
+                              std::vector<std::int64_t> weights, MPI_Comm comm) {
   const std::size_t no = scene.objects.size();
   if (nranks <= 1) return std::vector<int>(no, 0);
   if (!weights.empty() && weights.size() != no) throw RuntimeFailure("partition_at: the weights have the wrong size");
   PartitionInput in;
+  const bool tet_weights = weights.empty();
   in.weight = std::move(weights);
+  const std::vector<char> split = tet_weights ? split_mask(scene, nranks) : std::vector<char>();
   for (std::size_t k = 0; k < no; ++k) {
-    if (in.weight.size() < no) in.weight.push_back(shared_work(scene, k, nranks));
+    if (tet_weights) in.weight.push_back(shared_work(scene, k, nranks, split));
     for (int d = 0; d < 3; ++d)
       if (!std::isfinite(boxes[k].lo[d]) || !std::isfinite(boxes[k].hi[d]) || !(boxes[k].lo[d] <= boxes[k].hi[d]))
         boxes[k].lo[d] = boxes[k].hi[d] = 0;  // a blown-up object
   }
   in.box = std::move(boxes);
   in.reach = median_object_size(in.box);
-  return partition_objects(in, nranks);
+  return partition_objects(in, nranks, shared_cut_search(comm));
 }
 
 bool rebalance_due(const RebalancePolicy& policy, std::int64_t step) {
   return policy.check_every > 0 && step > 0 && step % policy.check_every == 0;
 }
 
-std::vector<int> initial_partition(const Scene& scene, int nranks) {
-  return partition_at(scene, scene_boxes(scene), nranks);
+std::vector<int> initial_partition(const Scene& scene, int nranks, MPI_Comm comm) {
+  return partition_at(scene, scene_boxes(scene), nranks, {}, comm);
 }
 
 bool rebalance_wanted(const RebalancePolicy& policy, double imbalance, double cross, RebalanceHistory& h) {
@@ -196,7 +220,7 @@ bool rebalance(MPI_Comm comm, const Scene& scene, const World& w,
     MPI_Allreduce(MPI_IN_PLACE, contacts.data(), static_cast<int>(contacts.size()), MPI_INT64_T, MPI_SUM, comm);
     weights = measured_weights(scene, current, seconds, contacts);
   }
-  next = partition_at(scene, object_boxes(comm, scene, w), nranks, std::move(weights));
+  next = partition_at(scene, object_boxes(comm, scene, w), nranks, std::move(weights), comm);
   keep_objects_in_place(scene, current, nranks, next);
   std::int64_t moved = 0;
   for (std::size_t k = 0; k < next.size(); ++k) moved += next[k] != current[k] ? 1 : 0;

@@ -12,17 +12,32 @@
 
 namespace softcontact {
 
-bool split_candidate(const Scene& scene, std::size_t k, int nranks) {
+namespace {
+bool candidate_of(const Scene& scene, std::size_t k, int nranks, double total_tets) {
   if (nranks <= 1 || !scene.sim.split_objects || scene.sim.integrator == IntegratorKind::implicit_euler ||
       scene.objects[k].kinematic)
     return false;
-  return static_cast<double>(scene.shape(k).tets) * nranks > static_cast<double>(scene.num_tets());
+  return static_cast<double>(scene.shape(k).tets) * nranks > total_tets;
+}
+}  // namespace
+
+bool split_candidate(const Scene& scene, std::size_t k, int nranks) {
+  return candidate_of(scene, k, nranks, static_cast<double>(scene.num_tets()));
+}
+
+std::vector<char> split_mask(const Scene& scene, int nranks) {
+  std::vector<char> mask(scene.objects.size(), 0);
+  if (nranks <= 1 || !scene.sim.split_objects) return mask;
+  const double total = static_cast<double>(scene.num_tets());
+  for (std::size_t k = 0; k < mask.size(); ++k) mask[k] = candidate_of(scene, k, nranks, total) ? 1 : 0;
+  return mask;
 }
 
 std::vector<int> split_candidates(const Scene& scene, int nranks) {
+  const std::vector<char> mask = split_mask(scene, nranks);
   std::vector<int> out;
-  for (std::size_t k = 0; k < scene.objects.size(); ++k)
-    if (split_candidate(scene, k, nranks)) out.push_back(static_cast<int>(k));
+  for (std::size_t k = 0; k < mask.size(); ++k)
+    if (mask[k]) out.push_back(static_cast<int>(k));
   return out;
 }
 

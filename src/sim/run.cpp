@@ -274,7 +274,7 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     const CheckpointInfo& info = restart->info;
     bool same = info.ranks == nranks && info.partition.size() == scene.objects.size();
     for (int r : info.partition) same = same && r >= 0 && r < nranks;
-    partition = same ? info.partition : partition_at(scene, info.boxes, nranks);
+    partition = same ? info.partition : partition_at(scene, info.boxes, nranks, {}, comm);
   }
   // Before the Simulator drops the meshes this rank does not need: checkpoints carry it.
   const std::uint64_t fingerprint = scene_fingerprint(scene);

@@ -30,28 +30,43 @@ namespace softcontact {
 
 Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partition)
     : comm_(comm), rank_(comm_rank(comm)), nranks_(comm_size(comm)), scene_(scene) {
+  double t = MPI_Wtime();
+  auto stage = [&](const char* name) {  // closes the stage that ends here
+    const double now = MPI_Wtime();
+    setup_stages_.emplace_back(name, now - t);
+    t = now;
+  };
   rebalance_ = rebalance_policy(scene.sim);
-  partition_ = partition.empty() ? initial_partition(scene, nranks_) : std::move(partition);
+  partition_ = partition.empty() ? initial_partition(scene, nranks_, comm_) : std::move(partition);
   if (partition_.size() != scene.objects.size())
     throw RuntimeFailure("Simulator: the partition names " + std::to_string(partition_.size()) + " objects, the scene has " +
                          std::to_string(scene.objects.size()));
   for (int r : partition_)
     if (r < 0 || r >= nranks_) throw RuntimeFailure("Simulator: the partition names rank " + std::to_string(r));
+  stage("partition");
   world_ = build_world(scene, partition_, rank_);
+  stage("world");
   double mean_edge = 0;
   median_edge_ = edge_statistics(mean_edge);
   collision_settings_ = collision_settings_for(scene, mean_edge);
+  stage("edge statistics");
   ghosts_ = std::make_unique<GhostSet>(comm, scene_, collision_settings_.cell_size);
   drop_unneeded_meshes();  // the ghosts' meshes are made again as the ghost set takes them
   split_candidates_ = split_candidates(scene_, nranks_);
+  stage("halo");
   build_components();
+  stage("components");
   rebuild_ghosts(true);
+  stage("ghosts");
   core_->initial_overlaps(initial_overlaps_, initial_overlap_depth_);
   MPI_Allreduce(MPI_IN_PLACE, &initial_overlaps_, 1, MPI_INT64_T, MPI_SUM, comm_);
   MPI_Allreduce(MPI_IN_PLACE, &initial_overlap_depth_, 1, MPI_DOUBLE, MPI_MAX, comm_);
+  stage("initial overlaps");
   prepare_split();
+  stage("split plan");
   core_->start(ghosts_->exchange());
   ghosts_->update(world_.x_prev.data());
+  stage("start");
 }
 
 // Everything that depends on which objects this rank owns: the serial core (forces and

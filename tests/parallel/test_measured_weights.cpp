@@ -11,6 +11,7 @@
 
 #include "softcontact/rebalance.hpp"
 #include "softcontact/scene.hpp"
+#include "softcontact/split_forces.hpp"
 
 using namespace softcontact;
 
@@ -167,4 +168,43 @@ TEST(Rebalance, CrossFractionThePartitionCouldNotLowerDoesNotTriggerAgain) {
   RebalanceHistory fresh;
   EXPECT_FALSE(rebalance_wanted(p, 1.0, 0.5, fresh));
   EXPECT_TRUE(rebalance_wanted(p, 1.26, 0.0, fresh));
+}
+
+// Split candidates (split_forces.hpp) over a scene: objects of 500, 100, 100, 200 tets and
+// a kinematic one of 100 (1,000 tets in all). An object is a candidate when tets x ranks
+// > 1,000: the 500 from 3 ranks on (2 x 500 is not more), the 200 from 6; the 100s never
+// below 11 ranks, the kinematic one never. split_mask, which sums the scene once, must
+// name exactly the objects split_candidate names one at a time, and the tet weights of
+// the partition take a candidate's share (its tets / ranks).
+TEST(SplitCandidates, TheMaskNamesWhatEachObjectsTestNames) {
+  Scene s;
+  s.materials.resize(1);
+  const std::size_t tets[] = {500, 100, 100, 200, 100};
+  for (std::size_t k = 0; k < 5; ++k) {
+    SceneObject o;
+    ObjectShape sh;
+    sh.tets = tets[k];
+    sh.vertices = tets[k] / 2;
+    sh.box = Box{{2.0 * static_cast<double>(k), 0, 0}, {2.0 * static_cast<double>(k) + 1, 1, 1}};
+    o.shape = sh;
+    o.kinematic = k == 4;
+    s.objects.push_back(std::move(o));
+  }
+  const std::vector<std::vector<char>> expected = {
+      {0, 0, 0, 0, 0}, {0, 0, 0, 0, 0}, {0, 0, 0, 0, 0}, {1, 0, 0, 0, 0},
+      {1, 0, 0, 0, 0}, {1, 0, 0, 0, 0}, {1, 0, 0, 1, 0}, {1, 0, 0, 1, 0}};
+  for (int ranks = 1; ranks <= 7; ++ranks) {
+    const std::vector<char> mask = split_mask(s, ranks);
+    EXPECT_EQ(mask, expected[static_cast<std::size_t>(ranks)]) << ranks << " ranks";
+    for (std::size_t k = 0; k < 5; ++k) EXPECT_EQ(mask[k] != 0, split_candidate(s, k, ranks)) << "object " << k;
+  }
+  s.sim.split_objects = false;
+  EXPECT_EQ(split_mask(s, 7), std::vector<char>(5, 0));
+  // The weights of measured_weights without measurements are the static work (+1): a
+  // candidate's tets over the ranks, a kinematic object a tenth of its triangles (none here).
+  s.sim.split_objects = true;
+  const std::vector<std::int64_t> w = measured_weights(s, {0, 0, 1, 1, 1}, {});
+  EXPECT_EQ(w, (std::vector<std::int64_t>{501, 101, 101, 201, 1}));
+  const std::vector<std::int64_t> w6 = measured_weights(s, {0, 1, 2, 3, 4}, std::vector<double>(6, 0.0));
+  EXPECT_EQ(w6, (std::vector<std::int64_t>{500 / 6 + 1, 101, 101, 200 / 6 + 1, 1}));
 }
