@@ -60,7 +60,17 @@ public:
   /// and adds the owned split objects' internal forces (and -alpha m v) to f. Two
   /// exchanges with the peers (the ranks this rank shares a split object with),
   /// collective over them; every rank of a run with a split object calls it.
+  /// evaluate() then merge().
   void add(const World& w, std::vector<double>& f, bool damping, NeighbourExchange* exchange);
+  /// add()'s first part: the two exchanges and this rank's parts, the forces for the
+  /// owned split objects kept for merge(). Collective over the peers. Called before the
+  /// rank's other internal forces, so that both exchanges come around work of equal size
+  /// on every rank (the parts) and the uneven rest of the forces phase waits for nothing.
+  void evaluate(const World& w, bool damping, NeighbourExchange* exchange);
+  /// add()'s second part: the owned split objects' forces into f, after evaluate(). Local;
+  /// it touches only the split objects' vertices, so it may come before or after the
+  /// other objects' forces with the same bits.
+  void merge(const World& w, std::vector<double>& f, bool damping);
 
   /// Doubles this rank has sent so far (states to parts, forces to owners).
   std::int64_t doubles_sent() const { return doubles_sent_; }
@@ -82,6 +92,8 @@ private:
   std::vector<std::unique_ptr<Merge>> merges_;  // ascending object: the owned split objects
   std::vector<int> owned_;
   std::vector<int> peers_;                      // ascending
+  std::vector<std::vector<double>> forces_in_;  // evaluate(): each peer's forces for the owned objects
+  bool evaluated_ = false;
   std::int64_t doubles_sent_ = 0;
   std::int64_t helped_tets_ = 0;
   double exchange_wall_ = 0, exchange_cpu_ = 0;

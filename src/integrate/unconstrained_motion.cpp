@@ -19,8 +19,11 @@ void UnconstrainedMotion::forces(const World& w, std::vector<double>& f, SplitFo
   // Step 1 of Algorithm 1: p = gravity + internal forces + Rayleigh damping at (x^t, v^t);
   // implicit Euler treats damping inside its linear system instead.
   gravity_forces(w, scene_.sim.gravity, f);
+  // The split objects' parts first (ElasticForces skips those objects): their exchanges
+  // then wait only for parts of equal size, not for each rank's own objects.
+  if (split) split->evaluate(w, !implicit_, exchange);
   elastic_->add_forces(w, f, !implicit_);
-  if (split) split->add(w, f, !implicit_, exchange);  // the split objects' (ElasticForces skips them)
+  if (split) split->merge(w, f, !implicit_);
 }
 
 void UnconstrainedMotion::start(World& w, const std::vector<double>& f) const { start_integration(w, scene_.sim, f); }

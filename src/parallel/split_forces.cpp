@@ -230,7 +230,13 @@ void SplitForces::timed_exchange(NeighbourExchange* exchange, const std::vector<
 }
 
 void SplitForces::add(const World& w, std::vector<double>& f, bool damping, NeighbourExchange* exchange) {
+  evaluate(w, damping, exchange);
+  merge(w, f, damping);
+}
+
+void SplitForces::evaluate(const World& w, bool damping, NeighbourExchange* exchange) {
   if (!peers_.empty() && !exchange) throw RuntimeFailure("SplitForces: objects shared with other ranks need an exchange");
+  evaluated_ = true;
   // 1. Each part's state from the owner: positions, and velocities where the stiffness
   // damping needs them, of its vertices in ascending order.
   std::vector<std::vector<double>> in;
@@ -288,14 +294,21 @@ void SplitForces::add(const World& w, std::vector<double>& f, bool damping, Neig
       throw RuntimeFailure("SplitForces: rank " + std::to_string(peers_[q]) + " sent " + std::to_string(in[q].size()) +
                            " state components, " + std::to_string(read[q]) + " used");
   // 3. The parts of other ranks' objects to their owners, in ascending object order.
+  forces_in_.clear();
   if (exchange) {
     std::vector<std::vector<char>> send(peers_.size());
     for (const std::unique_ptr<Part>& p : parts_)
       if (p->owner != w.rank && !p->stream.empty())
         append_records(send[peer_index(p->owner, p->object)], p->stream.data(), p->stream.size());
-    timed_exchange(exchange, send, in);
+    timed_exchange(exchange, send, forces_in_);
   }
-  read.assign(in.size(), 0);
+}
+
+void SplitForces::merge(const World& w, std::vector<double>& f, bool damping) {
+  if (!evaluated_) throw RuntimeFailure("SplitForces: merge() before evaluate()");
+  evaluated_ = false;
+  const std::vector<std::vector<double>>& in = forces_in_;
+  std::vector<std::size_t> read(in.size(), 0);  // doubles read from each peer
   // 4. Each owned object's vertices: every corner force in ascending tet id, from the
   // part that evaluated it (a vertex inside one part: that part's sum).
   std::vector<double> c;
