@@ -81,6 +81,12 @@ struct BenchResult {
   double cpu_imbalance = 1;
   /// Collision records whose triangle lies on another rank's object / all records.
   double cross_rank_fraction = 0;
+  /// Objects split for their forces (at the end), and their exchanges: bytes sent per
+  /// timed step by one rank (max over ranks), tets a rank evaluates for another rank's
+  /// object (max over ranks).
+  int split_objects = 0;
+  double split_bytes_max = 0;
+  std::int64_t split_helped_tets_max = 0;
   std::int64_t ghost_rebuilds = 0;  ///< ghost-set rebuilds during the timed steps (rank 0)
   /// With edge contacts: timed steps in which the edge search found its candidate pairs
   /// again (the skin used up; rank 0), and the pairs held per step (mean over steps, sum

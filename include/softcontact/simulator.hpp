@@ -151,6 +151,11 @@ public:
   std::int64_t ghost_rebuilds() const;
   /// Bytes this rank has received through the halo since construction.
   std::int64_t halo_bytes() const;
+  /// Of what this rank sent, the split objects' exchanges since construction (states to
+  /// parts, forces to owners) [bytes]; the tets it evaluates now for objects it does not
+  /// own.
+  std::int64_t split_bytes_sent() const;
+  std::int64_t split_helped_tets() const;
   /// Collisions of this rank whose triangle lies on an object of another rank, last step.
   std::int64_t cross_rank_collisions() const { return cross_collisions_; }
 
@@ -202,6 +207,7 @@ private:
   std::vector<int> split_candidates_;          // objects bigger than a share (split_forces.hpp)
   bool split_dirty_ = true;                    // the World was replaced since the split plan was made
   int split_count_ = 0, split_ranks_ = 0;      // split objects, the ranks sharing each
+  std::int64_t split_doubles_before_ = 0;      // sent by the SplitForces replaced so far
   std::map<int, std::vector<std::int32_t>> split_parts_;  // object -> its tets' parts (one per rank)
 };
 

@@ -150,7 +150,7 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
 
   const double start = MPI_Wtime();
   double last_report = start, loop_start = start;
-  std::int64_t unused = 0, bytes0 = 0, rebuilds0 = 0, cross = 0, records = 0, edge_searches = 0, edge_pairs = 0;
+  std::int64_t unused = 0, bytes0 = 0, split0 = 0, rebuilds0 = 0, cross = 0, records = 0, edge_searches = 0, edge_pairs = 0;
   double compute = 0, compute_cpu = 0;
   for (std::int64_t k = 1; k <= total_steps; ++k) {
     const bool timed = k > opt.warmup;
@@ -158,6 +158,7 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
       MPI_Barrier(comm);
       sim.take_times(unused);  // drop the warm-up's accumulated times
       bytes0 = sim.halo_bytes();
+      split0 = sim.split_bytes_sent();
       rebuilds0 = sim.ghost_rebuilds();
       loop_start = MPI_Wtime();
     }
@@ -218,6 +219,12 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
     r.cpu_imbalance = usum > 0 ? umax / (usum / size) : 1;
     r.cross_rank_fraction = cr[1] > 0 ? static_cast<double>(cr[0]) / static_cast<double>(cr[1]) : 0;
     r.ghost_rebuilds = sim.ghost_rebuilds() - rebuilds0;
+    double split[2] = {static_cast<double>(sim.split_bytes_sent() - split0) / static_cast<double>(n),
+                       static_cast<double>(sim.split_helped_tets())};
+    MPI_Allreduce(MPI_IN_PLACE, split, 2, MPI_DOUBLE, MPI_MAX, comm);
+    r.split_objects = sim.split_objects();
+    r.split_bytes_max = split[0];
+    r.split_helped_tets_max = static_cast<std::int64_t>(split[1]);
     MPI_Allreduce(MPI_IN_PLACE, &edge_pairs, 1, MPI_INT64_T, MPI_SUM, comm);
     r.edge_pair_searches = edge_searches;
     r.edge_pairs_mean = n > 0 ? static_cast<double>(edge_pairs) / static_cast<double>(n) : 0;
@@ -303,8 +310,13 @@ void print_bench_table(std::ostream& out, const BenchResult& r) {
         << r.edge_pair_searches << " of " << r.steps.size() << " timed steps\n";
   if (r.ranks > 1)
     out << "  halo traffic per step and rank: max " << fixed(r.halo_bytes_max / 1024, 1) << " KiB, mean "
-        << fixed(r.halo_bytes_mean / 1024, 1) << " KiB; ghost rebuilds " << r.ghost_rebuilds << "\n"
-        << "  load imbalance (compute, max/mean over ranks): wall " << fixed(r.compute_imbalance, 3) << ", CPU "
+        << fixed(r.halo_bytes_mean / 1024, 1) << " KiB; ghost rebuilds " << r.ghost_rebuilds << "\n";
+  if (r.ranks > 1 && r.split_objects > 0)
+    out << "  split objects: " << r.split_objects << "; their exchanges " << fixed(r.split_bytes_max / 1024, 1)
+        << " KiB sent per step (max rank); " << r.split_helped_tets_max
+        << " tets evaluated for another rank's object (max rank)\n";
+  if (r.ranks > 1)
+    out << "  load imbalance (compute, max/mean over ranks): wall " << fixed(r.compute_imbalance, 3) << ", CPU "
         << fixed(r.cpu_imbalance, 3) << "; collisions crossing ranks: " << fixed(100 * r.cross_rank_fraction, 1) << "%\n";
 }
 

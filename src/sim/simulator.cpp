@@ -73,6 +73,7 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
 // the implicit solver, their rest shapes from world_.x, which must hold the scene's
 // initial positions here, and the contact response; the detector follows the ghosts).
 void Simulator::build_components() {
+  if (core_ && core_->split()) split_doubles_before_ += core_->split()->doubles_sent();
   core_.reset();  // the old implicit solver goes before the new one is made
   core_ = std::make_unique<SerialStepper>(scene_, world_, collision_settings_);
   split_dirty_ = true;
@@ -90,6 +91,7 @@ void Simulator::prepare_split() {
     if (parts.empty()) parts = split_tet_parts(scene_.view_mesh(static_cast<std::size_t>(k)).get(), nranks_);
     plan.push_back({k, partition_[static_cast<std::size_t>(k)], parts});
   }
+  if (core_->split()) split_doubles_before_ += core_->split()->doubles_sent();
   core_->set_split(std::make_unique<SplitForces>(scene_, world_, std::move(plan)));
   split_dirty_ = false;
   split_count_ = static_cast<int>(split_candidates_.size());
@@ -146,6 +148,14 @@ void Simulator::drop_unneeded_meshes() {
 }
 
 std::int64_t Simulator::halo_bytes() const { return ghosts_->bytes_received(); }
+std::int64_t Simulator::split_bytes_sent() const {
+  const SplitForces* s = core_ ? core_->split() : nullptr;
+  return static_cast<std::int64_t>(sizeof(double)) * (split_doubles_before_ + (s ? s->doubles_sent() : 0));
+}
+std::int64_t Simulator::split_helped_tets() const {
+  const SplitForces* s = core_ ? core_->split() : nullptr;
+  return s ? s->helped_tets() : 0;
+}
 std::int64_t Simulator::ghost_rebuilds() const { return ghosts_->rebuilds(); }
 
 Simulator::~Simulator() = default;
