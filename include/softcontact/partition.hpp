@@ -52,7 +52,9 @@ std::vector<ObjectEdge> object_graph_edges(const PartitionInput& in);
 /// none gives INT64_MAX, INT_MAX and no parts) and returns on every rank the parts of the
 /// best over the ranks: the smallest cut, then the lowest c (an MPI_Allreduce and a
 /// broadcast: rebalance.cpp). The result is the same as with parts = 1, where every
-/// candidate is computed here, and so the same on any rank count.
+/// candidate is computed here, and so the same on any rank count. A rank whose METIS run
+/// fails gives the cut -1; `best` then returns no parts on every rank, and every rank
+/// throws (none is left waiting).
 struct CutSearch {
   int part = 0;
   int parts = 1;

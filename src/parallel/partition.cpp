@@ -154,10 +154,21 @@ std::vector<int> best_metis(Graph& g, int nparts, const CutSearch& search) {
   std::int64_t best_cut = std::numeric_limits<std::int64_t>::max();
   int best_c = std::numeric_limits<int>::max();
   std::vector<int> best;
+  std::string failed;
   for (int c = 0; c < kMetisCuts; ++c) {
     if (shared && c % search.parts != search.part) continue;
     std::int64_t cut = 0;
-    std::vector<int> p = run_metis(g, nparts, c, cut);
+    std::vector<int> p;
+    try {
+      p = run_metis(g, nparts, c, cut);
+    } catch (const RuntimeFailure& e) {
+      if (!shared) throw;
+      failed = e.what();  // the other ranks wait in search.best: tell them, then throw
+      best_cut = -1;
+      best_c = c;
+      best.clear();
+      break;
+    }
     if (cut < best_cut) {  // ascending c: a tie keeps the lower
       best_cut = cut;
       best_c = c;
@@ -165,7 +176,10 @@ std::vector<int> best_metis(Graph& g, int nparts, const CutSearch& search) {
     }
   }
   if (!shared) return best;
+  // A cut of -1 is a failed run: the smallest, so every rank learns of it.
   std::vector<int> chosen = search.best(best_cut, best_c, std::move(best));
+  if (!failed.empty()) throw RuntimeFailure(failed);
+  if (chosen.empty()) fail("METIS failed on another rank's candidate (its rank reports why)");
   if (chosen.size() != g.vwgt.size()) fail("the shared cut search returned " + std::to_string(chosen.size()) + " parts");
   return chosen;
 }

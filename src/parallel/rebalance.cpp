@@ -146,6 +146,7 @@ CutSearch shared_cut_search(MPI_Comm comm) {
     MPI_Allreduce(MPI_IN_PLACE, &best_cut, 1, MPI_INT64_T, MPI_MIN, comm);
     int best = cut == best_cut ? candidate : std::numeric_limits<int>::max();
     MPI_Allreduce(MPI_IN_PLACE, &best, 1, MPI_INT, MPI_MIN, comm);
+    if (best_cut < 0) return std::vector<int>();  // a run failed (its rank throws)
     const int root = best % size;  // candidate c is computed by the rank c % size
     long long n = rank == root ? static_cast<long long>(parts.size()) : 0;
     MPI_Bcast(&n, 1, MPI_LONG_LONG, root, comm);

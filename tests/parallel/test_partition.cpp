@@ -346,3 +346,49 @@ TEST(SplitTetParts, BalancedDeterministicWithASmallCut) {
     std::printf("[measured] %d parts: cut %zu of %zu interior faces\n", nparts, cut, interior);
   }
 }
+
+// The shared cut search (CutSearch) from one process's side: the candidates it computes
+// are those of its part, it hands its best to `best` (the smallest cut, the lowest
+// candidate on ties), and takes back what `best` returns; when another rank's run
+// failed, `best` returns no parts and the partition throws on this rank too, so that no
+// rank is left waiting. Reference: its own candidates' cuts by partition_quality.
+TEST(Partition, SharedCutSearchHandsItsBestAndTakesTheWinner) {
+  const PartitionInput in = random_boxes(300, 11);
+  const int nparts = 4;
+  // This process is part 1 of 2: it runs candidates 1 and 3.
+  std::int64_t handed_cut = -2;
+  int handed = -2;
+  std::vector<int> handed_parts;
+  CutSearch search;
+  search.part = 1;
+  search.parts = 2;
+  search.best = [&](std::int64_t cut, int c, std::vector<int> p) {
+    handed_cut = cut;
+    handed = c;
+    handed_parts = p;
+    return p;
+  };
+  const std::vector<int> got = partition_objects(in, nparts, search);
+  ASSERT_TRUE(handed == 1 || handed == 3);
+  // Each candidate alone, as the test of the MPI side computes them.
+  auto alone = [&](int c) {
+    CutSearch only;
+    only.part = c;
+    only.parts = kMetisCuts;
+    only.best = [](std::int64_t, int, std::vector<int> p) { return p; };
+    return partition_objects(in, nparts, only);
+  };
+  const std::int64_t c1 = partition_quality(in, alone(1), nparts).cut_weight;
+  const std::int64_t c3 = partition_quality(in, alone(3), nparts).cut_weight;
+  EXPECT_EQ(handed, c3 < c1 ? 3 : 1);
+  EXPECT_EQ(handed_cut, std::min(c1, c3));
+  EXPECT_EQ(got, alone(handed));
+  // Another rank's run failed: nothing comes back, and this rank throws as well.
+  search.best = [](std::int64_t, int, std::vector<int>) { return std::vector<int>(); };
+  try {
+    partition_objects(in, nparts, search);
+    ADD_FAILURE() << "no exception";
+  } catch (const RuntimeFailure& e) {
+    EXPECT_NE(std::string(e.what()).find("another rank"), std::string::npos) << e.what();
+  }
+}
