@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "softcontact/bench.hpp"
+#include "softcontact/split_forces.hpp"
 #include "softcontact/config.hpp"
 #include "softcontact/error.hpp"
 #include "softcontact/fault.hpp"
@@ -324,6 +325,48 @@ void print_summary(const Scene& s, std::ostream& out) {
       << steps_between_frames(sim) << " steps, output to " << sim.output_dir << "\n";
 }
 
+// Which objects a run on `ranks` ranks splits for their forces (split_forces.hpp), or
+// from how many ranks on the largest one would be.
+void print_split_objects(const Scene& s, int ranks, std::ostream& out) {
+  out << "  objects split for their forces (docs/architecture.md): ";
+  if (!s.sim.split_objects) {
+    out << "none (simulation.split_objects: false)\n";
+    return;
+  }
+  if (s.sim.integrator == IntegratorKind::implicit_euler) {
+    out << "none (implicit Euler objects are not split)\n";
+    return;
+  }
+  const double total = static_cast<double>(s.num_tets());
+  const std::vector<char> mask = split_mask(s, ranks);
+  std::size_t largest = s.objects.size();
+  std::vector<std::size_t> split;
+  for (std::size_t k = 0; k < s.objects.size(); ++k) {
+    if (mask[k]) split.push_back(k);
+    if (!s.objects[k].kinematic && (largest == s.objects.size() || s.shape(k).tets > s.shape(largest).tets)) largest = k;
+  }
+  auto share = [&](std::size_t k) {
+    std::ostringstream p;
+    p << std::fixed << std::setprecision(1) << 100.0 * static_cast<double>(s.shape(k).tets) / total << " %";
+    return p.str();
+  };
+  for (std::size_t i = 0; i < split.size(); ++i)
+    out << (i ? ", " : "") << "'" << s.objects[split[i]].name << "' (" << s.shape(split[i]).tets << " tets, "
+        << share(split[i]) << " of the scene)";
+  if (!split.empty()) {
+    out << " on " << ranks << " ranks\n";
+    return;
+  }
+  out << "none on " << ranks << " rank(s)";
+  if (largest < s.objects.size() && s.shape(largest).tets > 0) {
+    // The fewest ranks with tets x ranks > all tets.
+    const auto from = static_cast<std::int64_t>(std::floor(total / static_cast<double>(s.shape(largest).tets))) + 1;
+    out << "; the largest deformable object, '" << s.objects[largest].name << "' (" << share(largest)
+        << " of the tets), would be from " << std::max<std::int64_t>(from, 2) << " ranks on";
+  }
+  out << "\n";
+}
+
 int cmd_check(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) {
   const Scene s = load_scene(scene_argument(a, "check"));
   const int rank = comm_rank(comm), size = comm_size(comm);
@@ -335,6 +378,7 @@ int cmd_check(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err
     out << "  memory: about " << format_bytes(mem.per_rank) << " peak per rank on " << ranks
         << " rank(s); address space (ulimit -v) about " << format_bytes(address_space_needed(mem))
         << " (docs/reliability.md, \"Memory\")\n";
+    print_split_objects(s, ranks, out);
   }
   // The limits are this process's: they say something for a run on this node.
   check_memory_fits(comm, mem, s.path);

@@ -34,6 +34,11 @@ expect 0 'total: 24 vertices, 18 tets' -- "$exe" check "$data/scenes/with_mesh.y
 # floor 4x4x1 cells: 50 vertices, 96 tets)
 expect 0 'total: 104 vertices, 192 tets' -- "$exe" check "$data/scenes/small.yaml"
 expect 0 'stable explicit time step' -- "$exe" check "$data/scenes/small.yaml"
+# check: which objects a run on N ranks splits for their forces (a floor of 52 % of the
+# tets: from 2 ranks on; four cubes of 48 tets: each a quarter, more than a share from 5 ranks on)
+expect 0 "split for their forces .*'floor' \(.* 52\.. % of the scene\) on 2 ranks" -- "$exe" check "$data/scenes/soft_floor.yaml" --ranks 2
+expect 0 "split for their forces .*none on 1 rank\(s\); the largest deformable object, 'floor' .* would be from 2 ranks on" -- "$exe" check "$data/scenes/soft_floor.yaml"
+expect 0 "split for their forces .*none on 3 rank\(s\); the largest deformable object, 'cube\[0\]' \(25\.0 % of the tets\), would be from 5 ranks on" -- "$exe" check "$data/scenes/small.yaml" --ranks 3
 [ ! -e output ] && ok || bad "check wrote output"
 
 # run: output files, frames at steps 0,5,10,15,20
