@@ -70,8 +70,8 @@ inline constexpr int kMetisCuts = 4;
 /// ufactor 30, i.e. 1.03 plus the granularity of single objects, C numbering, adjacency
 /// built in ascending object order), run kMetisCuts times with the seeds kMetisSeed + c
 /// and one cut each; the smallest cut wins (the lowest c on ties). `search` spreads the
-/// runs over the ranks (CutSearch); the answer does not depend on it. Recursive bisection (METIS_PartGraphRecursive) is not used, at any
-/// part count. Measured on random scenes of 100 objects, 2..8 parts, weights 1..1000:
+/// runs over the ranks (CutSearch); the answer does not depend on it. Recursive
+/// bisection (METIS_PartGraphRecursive) is not used, at any part count. Measured on random scenes of 100 objects, 2..8 parts, weights 1..1000:
 /// the better of one k-way and one recursive run cut 5% less than k-way alone, the best
 /// of four k-way runs 9% less; recursive bisection balanced worse from 5 parts up
 /// (imbalance up to 1.18 where k-way stayed below 1.09); and with heavy-tailed weights

@@ -34,7 +34,9 @@ RebalancePolicy rebalance_policy(const Simulation& sim);
 /// weighted by tets (kinematic objects by a tenth of their surface triangles), edges
 /// between objects closer than the median object size. Identical on every rank. With a
 /// communicator (collective then), its ranks share METIS's search for the smallest cut
-/// (CutSearch, partition.hpp): the same answer, in a quarter of the time on 4 ranks.
+/// (CutSearch, partition.hpp): the same answer, METIS's part in a quarter of the time on
+/// 4 ranks (the object graph is still built by every rank, and at 4,040 objects it costs
+/// as much as the four METIS runs: docs/benchmarks.md).
 std::vector<int> initial_partition(const Scene& scene, int nranks, MPI_Comm comm = MPI_COMM_NULL);
 
 /// The same partition at the object boxes `boxes` (objects that have moved; a box with
