@@ -86,7 +86,11 @@ struct BenchResult {
   /// object (max over ranks).
   int split_objects = 0;
   double split_bytes_max = 0;
+  double split_bytes_sum = 0;  ///< the same, summed over the ranks
   std::int64_t split_helped_tets_max = 0;
+  /// At the end, over all ranks: parts of split objects evaluated off their owner, and of
+  /// those the ones reading the positions from ghost rows (split_forces.hpp).
+  int split_helping_parts = 0, split_parts_from_ghosts = 0;
   std::int64_t ghost_rebuilds = 0;  ///< ghost-set rebuilds during the timed steps (rank 0)
   /// With edge contacts: timed steps in which the edge search found its candidate pairs
   /// again (the skin used up; rank 0), and the pairs held per step (mean over steps, sum

@@ -156,6 +156,10 @@ public:
   /// own.
   std::int64_t split_bytes_sent() const;
   std::int64_t split_helped_tets() const;
+  /// This rank's parts of other ranks' split objects, and of those the ones that take the
+  /// positions from their ghost rows (no positions sent to them).
+  int split_helping_parts() const;
+  int split_parts_from_ghosts() const;
   /// Collisions of this rank whose triangle lies on an object of another rank, last step.
   std::int64_t cross_rank_collisions() const { return cross_collisions_; }
 
@@ -173,6 +177,7 @@ private:
   // Before forces are evaluated: the split objects' plan (split_forces.hpp), made again
   // when the World was replaced.
   void prepare_split();
+  void share_ghost_holders();
   void rebuild_ghosts(bool force);
   void follow_ghosts();
   // Drops the meshes of the objects this rank neither owns nor ghosts (Scene::drop_meshes).
@@ -208,6 +213,7 @@ private:
   bool split_dirty_ = true;                    // the World was replaced since the split plan was made
   int split_count_ = 0, split_ranks_ = 0;      // split objects, the ranks sharing each
   std::int64_t split_doubles_before_ = 0;      // sent by the SplitForces replaced so far
+  std::int64_t split_ghost_generation_ = -1;   // GhostSet::rebuilds() when the split's ghost holders were shared
   std::map<int, std::vector<std::int32_t>> split_parts_;  // object -> its tets' parts (one per rank)
 };
 

@@ -8,6 +8,10 @@
 // are all in the part) or each corner force (a vertex on a cut). The owner folds every
 // vertex's corner forces in ascending tet global id, as ElasticForces::add_forces does on
 // one rank, so the forces, and every result after them, are bitwise those of one rank.
+// A part on a rank that holds the object as a ghost (the whole object's x^t in its ghost
+// rows, which the halo refreshes at the end of every step) reads its positions there,
+// and the owner sends it only the velocities, where the stiffness damping needs them
+// (set_ghost_holders): the same doubles, sent once.
 //
 // No MPI here: the messages go through NeighbourExchange::exchange_with. Ownership,
 // state, detection, contact, output and checkpoints stay with the owner; only the force
@@ -71,6 +75,19 @@ public:
   /// it touches only the split objects' vertices, so it may come before or after the
   /// other objects' forces with the same bits.
   void merge(const World& w, std::vector<double>& f, bool damping);
+
+  /// Which ranks hold each split object as a ghost: held[r * plan size + i] for rank r and
+  /// the i-th object of the plan (the same vector on every rank). Such a rank's part reads
+  /// the object's positions from its ghost rows, which the halo fills with x^t from the
+  /// owner at the end of every step, and its owner stops sending them (the velocities are
+  /// still sent where the stiffness damping needs them: ghosts carry no velocities). To be
+  /// called again, on every rank, after every change of the ghost sets and before the
+  /// next evaluate(); until the first call every part's positions are sent.
+  void set_ghost_holders(const std::vector<char>& held);
+  /// This rank's parts of other ranks' objects (with tets), and of those the ones that read
+  /// their positions from ghost rows.
+  int helping_parts() const;
+  int parts_from_ghosts() const;
 
   /// Doubles this rank has sent so far (states to parts, forces to owners).
   std::int64_t doubles_sent() const { return doubles_sent_; }

@@ -70,6 +70,7 @@ public:
   /// owned ones, `split` adds their forces (null: none).
   void set_split(std::unique_ptr<SplitForces> split);
   const SplitForces* split() const { return split_.get(); }
+  SplitForces* split() { return split_.get(); }
 
   /// One whole step on one rank, from time t: Algorithm 1, one phase per line.
   void step(double t);

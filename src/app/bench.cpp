@@ -221,10 +221,17 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
     r.ghost_rebuilds = sim.ghost_rebuilds() - rebuilds0;
     double split[2] = {static_cast<double>(sim.split_bytes_sent() - split0) / static_cast<double>(n),
                        static_cast<double>(sim.split_helped_tets())};
+    double split_sum = split[0];
     MPI_Allreduce(MPI_IN_PLACE, split, 2, MPI_DOUBLE, MPI_MAX, comm);
+    MPI_Allreduce(MPI_IN_PLACE, &split_sum, 1, MPI_DOUBLE, MPI_SUM, comm);
     r.split_objects = sim.split_objects();
     r.split_bytes_max = split[0];
+    r.split_bytes_sum = split_sum;
     r.split_helped_tets_max = static_cast<std::int64_t>(split[1]);
+    int parts[2] = {sim.split_helping_parts(), sim.split_parts_from_ghosts()};
+    MPI_Allreduce(MPI_IN_PLACE, parts, 2, MPI_INT, MPI_SUM, comm);
+    r.split_helping_parts = parts[0];
+    r.split_parts_from_ghosts = parts[1];
     MPI_Allreduce(MPI_IN_PLACE, &edge_pairs, 1, MPI_INT64_T, MPI_SUM, comm);
     r.edge_pair_searches = edge_searches;
     r.edge_pairs_mean = n > 0 ? static_cast<double>(edge_pairs) / static_cast<double>(n) : 0;
@@ -313,8 +320,10 @@ void print_bench_table(std::ostream& out, const BenchResult& r) {
         << fixed(r.halo_bytes_mean / 1024, 1) << " KiB; ghost rebuilds " << r.ghost_rebuilds << "\n";
   if (r.ranks > 1 && r.split_objects > 0)
     out << "  split objects: " << r.split_objects << "; their exchanges " << fixed(r.split_bytes_max / 1024, 1)
-        << " KiB sent per step (max rank); " << r.split_helped_tets_max
-        << " tets evaluated for another rank's object (max rank)\n";
+        << " KiB sent per step (max rank), " << fixed(r.split_bytes_sum / 1024, 1) << " KiB (all ranks); "
+        << r.split_helped_tets_max
+        << " tets evaluated for another rank's object (max rank); " << r.split_parts_from_ghosts << " of "
+        << r.split_helping_parts << " helping parts take the positions from their ghost rows\n";
   if (r.ranks > 1)
     out << "  load imbalance (compute, max/mean over ranks): wall " << fixed(r.compute_imbalance, 3) << ", CPU "
         << fixed(r.cpu_imbalance, 3) << "; collisions crossing ranks: " << fixed(100 * r.cross_rank_fraction, 1) << "%\n";

@@ -97,6 +97,7 @@ struct SplitForces::Part {
   int object = 0, owner = 0;
   std::size_t first = 0;           // the owner's local row of the object's first vertex (owner only)
   bool needs_v = false;            // stiffness damping: the part needs the velocities
+  bool from_ghost = false;         // positions from this rank's ghost rows of the object (not owner)
   World mini;
   std::unique_ptr<ElasticForces> forces;
   std::vector<std::int32_t> verts; // mini vertex -> object-local vertex
@@ -114,6 +115,7 @@ struct SplitForces::Merge {
   Incidence inc;
   std::vector<std::int32_t> tet_part, interior;
   std::vector<std::vector<std::int32_t>> part_vertices;  // per part (= rank): its vertices, ascending
+  std::vector<char> holds;         // per part (= rank): it holds the object as a ghost (no positions sent)
 };
 
 SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitObject> plan) {
@@ -187,6 +189,7 @@ SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitOb
       g->alpha = scene.materials[scene.objects[k].material].damping_mass;
       g->send_v = needs_v;
       g->part_vertices.resize(static_cast<std::size_t>(nparts));
+      g->holds.assign(static_cast<std::size_t>(nparts), 0);
       std::vector<std::int32_t> seen(static_cast<std::size_t>(nparts), -1);  // the last vertex each part took
       for (std::size_t j = 0; j + 1 < inc.offset.size(); ++j)
         for (std::int64_t e = inc.offset[j]; e < inc.offset[j + 1]; ++e) {
@@ -209,6 +212,38 @@ SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitOb
 }
 
 SplitForces::~SplitForces() = default;
+
+void SplitForces::set_ghost_holders(const std::vector<char>& held) {
+  const std::size_t n = parts_.size();
+  if (n == 0) return;
+  if (held.size() % n != 0)
+    throw RuntimeFailure("SplitForces: " + std::to_string(held.size()) + " ghost flags for " + std::to_string(n) +
+                         " split objects");
+  const std::size_t nranks = held.size() / n;
+  auto holds = [&](std::size_t r, std::size_t i) { return r < nranks && held[r * n + i] != 0; };
+  std::size_t g = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    Part& p = *parts_[i];
+    p.from_ghost = p.owner != p.mini.rank && holds(static_cast<std::size_t>(p.mini.rank), i);
+    if (g < merges_.size() && merges_[g]->object == p.object) {
+      Merge& m = *merges_[g++];
+      for (std::size_t q = 0; q < m.holds.size(); ++q)
+        m.holds[q] = static_cast<int>(q) != p.owner && holds(q, i) ? 1 : 0;
+    }
+  }
+}
+
+int SplitForces::helping_parts() const {
+  int n = 0;
+  for (const std::unique_ptr<Part>& p : parts_) n += p->owner != p->mini.rank && p->forces ? 1 : 0;
+  return n;
+}
+
+int SplitForces::parts_from_ghosts() const {
+  int n = 0;
+  for (const std::unique_ptr<Part>& p : parts_) n += p->from_ghost && p->forces ? 1 : 0;
+  return n;
+}
 
 std::size_t SplitForces::peer_index(int r, int object) const {
   const auto at = std::lower_bound(peers_.begin(), peers_.end(), r);
@@ -247,7 +282,8 @@ void SplitForces::evaluate(const World& w, bool damping, NeighbourExchange* exch
       for (std::size_t q = 0; q < g.part_vertices.size(); ++q) {
         if (static_cast<int>(q) == w.rank || g.part_vertices[q].empty()) continue;
         std::vector<char>& buf = send[peer_index(static_cast<int>(q), g.object)];
-        for (std::int32_t j : g.part_vertices[q]) append_records(buf, &w.x[3 * (g.first + static_cast<std::size_t>(j))], 3);
+        if (!g.holds[q])
+          for (std::int32_t j : g.part_vertices[q]) append_records(buf, &w.x[3 * (g.first + static_cast<std::size_t>(j))], 3);
         if (g.send_v && damping)
           for (std::int32_t j : g.part_vertices[q])
             append_records(buf, &w.v[3 * (g.first + static_cast<std::size_t>(j))], 3);
@@ -279,8 +315,20 @@ void SplitForces::evaluate(const World& w, bool damping, NeighbourExchange* exch
         }
     } else {
       const std::size_t q = peer_index(p.owner, p.object);
-      const double* x = take(q, 3 * nv, p.object, "positions");
-      std::copy(x, x + 3 * nv, p.mini.x.begin());
+      if (p.from_ghost) {
+        // The owner's x^t, to the bit: the halo copied it into the ghost rows at the end
+        // of the last step (or when the ghost set was built).
+        const index_t first = w.vertex_offset[static_cast<std::size_t>(p.object)];
+        if (first < 0 || w.owns_object(p.object))
+          throw RuntimeFailure("SplitForces: object " + std::to_string(p.object) +
+                               " is not a ghost here any more (set_ghost_holders was not called after the ghost set changed)");
+        for (std::size_t i = 0; i < nv; ++i)
+          for (std::size_t d = 0; d < 3; ++d)
+            p.mini.x[3 * i + d] = w.x[3 * (static_cast<std::size_t>(first) + static_cast<std::size_t>(p.verts[i])) + d];
+      } else {
+        const double* x = take(q, 3 * nv, p.object, "positions");
+        std::copy(x, x + 3 * nv, p.mini.x.begin());
+      }
       if (p.needs_v && damping) {
         const double* v = take(q, 3 * nv, p.object, "velocities");
         std::copy(v, v + 3 * nv, p.mini.v.begin());

@@ -84,7 +84,11 @@ void Simulator::build_components() {
 // alike and kept), the owner's part being its own. The plan depends only on the scene,
 // the rank count and the owners: it is made again after a migration.
 void Simulator::prepare_split() {
-  if (split_candidates_.empty() || !ghosts_->active() || !split_dirty_) return;
+  if (split_candidates_.empty() || !ghosts_->active()) return;
+  if (!split_dirty_) {
+    if (ghosts_->rebuilds() != split_ghost_generation_) share_ghost_holders();
+    return;
+  }
   std::vector<SplitObject> plan;
   for (int k : split_candidates_) {
     std::vector<std::int32_t>& parts = split_parts_[k];
@@ -96,6 +100,23 @@ void Simulator::prepare_split() {
   split_dirty_ = false;
   split_count_ = static_cast<int>(split_candidates_.size());
   split_ranks_ = nranks_;
+  share_ghost_holders();
+}
+
+// Which ranks hold each split object as a ghost, so that their parts take its positions
+// from the ghost rows rather than from a message (SplitForces::set_ghost_holders). Again
+// after every change of the ghost sets: GhostSet::rebuilds() counts those alike on every
+// rank, so every rank comes here together. Collective.
+void Simulator::share_ghost_holders() {
+  const std::size_t n = split_candidates_.size();
+  std::vector<char> mine(n, 0), all(n * static_cast<std::size_t>(nranks_), 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto k = static_cast<std::size_t>(split_candidates_[i]);
+    mine[i] = world_.vertex_offset[k] >= 0 && !world_.owns_object(static_cast<int>(k)) ? 1 : 0;
+  }
+  MPI_Allgather(mine.data(), static_cast<int>(n), MPI_CHAR, all.data(), static_cast<int>(n), MPI_CHAR, comm_);
+  core_->split()->set_ghost_holders(all);
+  split_ghost_generation_ = ghosts_->rebuilds();
 }
 
 std::vector<Box> Simulator::current_boxes() { return object_boxes(comm_, scene_, world_); }
@@ -155,6 +176,14 @@ std::int64_t Simulator::split_bytes_sent() const {
 std::int64_t Simulator::split_helped_tets() const {
   const SplitForces* s = core_ ? core_->split() : nullptr;
   return s ? s->helped_tets() : 0;
+}
+int Simulator::split_helping_parts() const {
+  const SplitForces* s = core_ ? core_->split() : nullptr;
+  return s ? s->helping_parts() : 0;
+}
+int Simulator::split_parts_from_ghosts() const {
+  const SplitForces* s = core_ ? core_->split() : nullptr;
+  return s ? s->parts_from_ghosts() : 0;
 }
 std::int64_t Simulator::ghost_rebuilds() const { return ghosts_->rebuilds(); }
 

@@ -12,6 +12,7 @@
 #include <cstring>
 #include <random>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <sstream>
 
@@ -80,6 +81,32 @@ Snapshot gather(MPI_Comm comm, Simulator& sim) {
 const Scene& soft_floor() {
   static const Scene s = load_scene(std::string(SOFTCONTACT_TEST_DATA) + "/scenes/soft_floor.yaml");
   return s;
+}
+
+// soft_floor with its balls 3 m higher: no rank but the floor's owner is near the floor,
+// so none holds it as a ghost, and its parts need the positions sent.
+const Scene& soft_floor_far() {
+  static const Scene s = [] {
+    const std::string path = std::string(SOFTCONTACT_TEST_DATA) + "/scenes/soft_floor.yaml";
+    std::ifstream in(path);
+    std::stringstream text;
+    text << in.rdbuf();
+    std::string yaml = text.str();
+    int moved = 0;
+    for (std::size_t at = yaml.find("0.09]}"); at != std::string::npos; at = yaml.find("0.09]}", at + 1), ++moved)
+      yaml.replace(at, 4, "3.09");
+    if (moved != 2) throw std::runtime_error("soft_floor.yaml: expected the two ball rows at z = 0.09");
+    return load_scene_from_string(yaml, path);
+  }();
+  return s;
+}
+
+// Over all ranks: the parts evaluated off their object's owner, and those of them that
+// read the positions from ghost rows (collective).
+std::pair<int, int> helping_parts(const Simulator& sim) {
+  int p[2] = {sim.split_helping_parts(), sim.split_parts_from_ghosts()};
+  MPI_Allreduce(MPI_IN_PLACE, p, 2, MPI_INT, MPI_SUM, MPI_COMM_WORLD);
+  return {p[0], p[1]};
 }
 
 // The reference: rank 0 alone, one thread, a snapshot every kEvery steps.
@@ -279,8 +306,12 @@ TEST(Distributed, SoftFloorSplitOverRanksIsBitwiseOneRanks) {
     expect_identical(
         threads,
         [&](Simulator& sim, int s) {
-          // Every rank holds the floor (its owner, or a ghost under the balls): all share it.
+          // Every rank holds the floor (its owner, or a ghost under the balls): all share it,
+          // and every part off the owner takes the floor's positions from its ghost rows.
           if (sim.split_objects() == 1 && sim.split_ranks() == n) ++split_steps;
+          const auto [helping, from_ghosts] = helping_parts(sim);
+          EXPECT_EQ(helping, n - 1) << "step " << s;
+          EXPECT_EQ(from_ghosts, n - 1) << "step " << s;
           if (s == 55 && n > 1) {
             std::vector<int> next = sim.partition();
             for (int& r : next) r = (r + 1) % n;
@@ -291,6 +322,60 @@ TEST(Distributed, SoftFloorSplitOverRanksIsBitwiseOneRanks) {
         nullptr, soft_floor());
     EXPECT_EQ(split_steps, n > 1 ? kSteps : 0) << "the floor was not split at every step";
     EXPECT_EQ(migrations, n > 1 ? 1 : 0);
+  }
+}
+
+// The floor's parts where no rank but its owner is near it: no part holds it as a ghost,
+// so the owner sends every part its positions, and the results are one rank's to the bit.
+TEST(Distributed, SoftFloorSplitWithoutGhostsIsBitwiseOneRanks) {
+  const int n = comm_size(MPI_COMM_WORLD);
+  int checked = 0;
+  expect_identical(
+      1,
+      [&](Simulator& sim, int s) {
+        if (s % 20 != 0) return;
+        const auto [helping, from_ghosts] = helping_parts(sim);
+        EXPECT_EQ(helping, n - 1) << "step " << s;
+        EXPECT_EQ(from_ghosts, 0) << "step " << s;
+        ++checked;
+      },
+      nullptr, soft_floor_far());
+  EXPECT_EQ(checked, kSteps / 20);
+}
+
+// What the floor's owner sends its parts per evaluation of the forces (the start and
+// each step): per vertex of each other part (a vertex of one of its tets), the velocity
+// (3 doubles: the floor has stiffness damping) and, only to a part that does not hold the
+// floor as a ghost, the position (3 more). The reference counts the parts' vertices from
+// the floor's mesh and its METIS parts (split_tet_parts), not from the split's plan.
+TEST(Distributed, SplitOwnerSendsPositionsOnlyToPartsWithoutTheGhost) {
+  const int n = comm_size(MPI_COMM_WORLD), rank = comm_rank(MPI_COMM_WORLD);
+  if (n == 1) GTEST_SKIP() << "nothing is split on one rank";
+  constexpr int kRun = 12;
+  for (const bool far : {false, true}) {
+    SCOPED_TRACE(far ? "balls far above the floor" : "balls on the floor");
+    const Scene& scene = far ? soft_floor_far() : soft_floor();
+    Simulator sim(MPI_COMM_WORLD, scene);
+    for (int s = 0; s < kRun; ++s) sim.step();
+    ASSERT_EQ(sim.ghost_rebuilds(), 1) << "the ghost set changed: the reference below assumes it did not";
+    const int owner = sim.partition()[0];
+    const TetMesh& floor = scene.mesh(0);
+    const std::vector<std::int32_t> part = split_tet_parts(floor, n);
+    std::int64_t vertices = 0;  // sum over the parts q != owner of the vertices of q's tets
+    for (int q = 0; q < n; ++q) {
+      if (q == owner) continue;
+      std::vector<char> touched(floor.num_vertices(), 0);
+      for (std::size_t t = 0; t < floor.num_tets(); ++t)
+        if (part[t] == q)
+          for (int c = 0; c < 4; ++c) touched[static_cast<std::size_t>(floor.tets[4 * t + c])] = 1;
+      vertices += std::count(touched.begin(), touched.end(), 1);
+    }
+    // The owner's figure on every rank, so that rank 0 (which alone prints) reports it.
+    std::int64_t sent = rank == owner ? sim.split_bytes_sent() : 0;
+    MPI_Allreduce(MPI_IN_PLACE, &sent, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+    const std::int64_t per_vertex = far ? 6 : 3;
+    EXPECT_EQ(sent, (kRun + 1) * per_vertex * vertices * static_cast<std::int64_t>(sizeof(double)))
+        << "owner rank " << owner << ", " << vertices << " vertices in the other parts";
   }
 }
 
