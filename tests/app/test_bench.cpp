@@ -168,27 +168,35 @@ TEST(Bench, CsvIsAppendedWithOneHeader) {
 }
 
 // The set-up by stage (Simulator::setup_stages, bench's "set-up by stage"): the stages
-// are the construction's, in order, each non-negative, and on one rank they add up to
-// bench's set-up figure (the Simulator's construction timed from outside) to within a
-// millisecond plus 2 %: nothing of the construction is left out of them.
+// are the construction's, in order, each non-negative, never more than bench's set-up
+// figure (the Simulator's construction timed from outside), and on one rank they add up
+// to it within a millisecond plus 2 %: nothing of the construction is left out of them.
+// The gap between the two clocks is a few calls long, so a preemption landing there on a
+// loaded machine could exceed it: the last check must hold in one of three runs.
 TEST(Bench, SetupStagesAddUpToTheSetup) {
   const Scene scene = load_scene_from_string(kPressedCube, "pressed_cube.yaml");
   BenchOptions opt;
   opt.steps = 1;
   opt.quiet = true;
-  std::ostringstream log;
-  const BenchResult r = run_bench(MPI_COMM_WORLD, scene, opt, log);
   const std::vector<std::string> names = {"partition", "world", "edge statistics", "halo", "components",
                                           "ghosts", "initial overlaps", "split plan", "start"};
-  ASSERT_EQ(r.setup_stages.size(), names.size());
-  double sum = 0;
-  for (std::size_t i = 0; i < names.size(); ++i) {
-    EXPECT_EQ(r.setup_stages[i].name, names[i]);
-    EXPECT_GE(r.setup_stages[i].min_seconds, 0.0);
-    EXPECT_GE(r.setup_stages[i].max_seconds, r.setup_stages[i].min_seconds);
-    sum += r.setup_stages[i].max_seconds;
+  bool covered = false;
+  std::string gaps;
+  for (int attempt = 0; attempt < 3 && !covered; ++attempt) {
+    std::ostringstream log;
+    const BenchResult r = run_bench(MPI_COMM_WORLD, scene, opt, log);
+    ASSERT_EQ(r.setup_stages.size(), names.size());
+    double sum = 0;
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      EXPECT_EQ(r.setup_stages[i].name, names[i]);
+      EXPECT_GE(r.setup_stages[i].min_seconds, 0.0);
+      EXPECT_GE(r.setup_stages[i].max_seconds, r.setup_stages[i].min_seconds);
+      sum += r.setup_stages[i].max_seconds;
+    }
+    EXPECT_GT(r.setup_seconds, 0.0);
+    EXPECT_LE(sum, r.setup_seconds * 1.0001);
+    covered = sum >= r.setup_seconds * 0.98 - 1e-3;
+    gaps += " " + std::to_string(r.setup_seconds - sum) + " s of " + std::to_string(r.setup_seconds) + " s;";
   }
-  EXPECT_GT(r.setup_seconds, 0.0);
-  EXPECT_LE(sum, r.setup_seconds * 1.0001);
-  EXPECT_GE(sum, r.setup_seconds * 0.98 - 1e-3);
+  EXPECT_TRUE(covered) << "the stages left out of the set-up:" << gaps;
 }
