@@ -51,6 +51,11 @@ public:
   /// Copies the owners' rows of `xyz` (n_local,3) into the ghost rows (nothing on one
   /// rank). Collective.
   void update(double* xyz);
+  /// After the contact response: the ghost rows of x take the owners' final positions.
+  /// Since refresh_predicted() the ghosts hold x~, and the response moves only the
+  /// vertices it acts on, so only the rows that changed travel (Halo::update_changed);
+  /// the same bits as update(w.x). Collective (nothing on one rank).
+  void update_final(World& w);
   /// Before the World is replaced (migration): the Halo goes, its traffic is kept in
   /// bytes_received(); the next rebuild(force) makes a new one.
   void drop();

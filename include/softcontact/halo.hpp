@@ -36,6 +36,15 @@ public:
 
   /// Copies the owners' rows of `xyz` (n_local,3) into the ghost rows. Collective.
   void update(double* xyz);
+  /// Keeps the owned rows of `xyz` that the neighbours' ghosts hold, as update() has just
+  /// sent them, for one update_changed().
+  void keep_sent(const double* xyz);
+  bool has_kept() const { return kept_valid_; }
+  /// update()'s result when the ghost rows hold what keep_sent() kept: each owner sends a
+  /// neighbour only the rows that differ from it bitwise (a bit per row the neighbour
+  /// holds, then those rows), and the other rows stay as they are. One message each way
+  /// per neighbour. Uses the kept rows up. Collective over the neighbours.
+  void update_changed(double* xyz);
 
   // NeighbourExchange (exchange.hpp), over `comm`.
   const std::vector<int>& neighbors() const override { return neighbors_; }
@@ -59,6 +68,11 @@ private:
   void* sf_ = nullptr;  // PetscSF
   MPI_Datatype xyz_type_ = MPI_DATATYPE_NULL;
   std::vector<int> neighbors_;
+  // update_changed: per neighbour, the owned rows its ghosts hold, and this rank's ghost
+  // rows that neighbour owns, both in the order of the ghost rows on the holder.
+  std::vector<std::vector<index_t>> send_rows_, recv_rows_;
+  std::vector<std::vector<double>> kept_;  // per neighbour: its send rows as last sent
+  bool kept_valid_ = false;
   std::int64_t ghost_rows_ = 0;
   std::int64_t bytes_received_ = 0;
 };

@@ -70,6 +70,12 @@ void GhostSet::drop() {
   halo_.reset();
 }
 
+void GhostSet::update_final(World& w) {
+  if (!halo_) return;
+  if (halo_->has_kept()) halo_->update_changed(w.x.data());
+  else halo_->update(w.x.data());
+}
+
 // While no owned vertex has moved skin/2 since the set was built, no ghosted pair's boxes
 // can have come to overlap at x~ without being ghosted: the set stays valid.
 bool GhostSet::rebuild(World& w, const std::vector<int>& partition, bool force) {
@@ -124,9 +130,11 @@ bool GhostSet::refresh_predicted(World& w, const std::vector<int>& partition) {
   if (!halo_) return false;
   std::copy(w.x.begin() + static_cast<std::ptrdiff_t>(3 * w.n_owned), w.x.end(),
             w.x_prev.begin() + static_cast<std::ptrdiff_t>(3 * w.n_owned));
-  if (stale(w)) return rebuild(w, partition, false);
-  halo_->update(w.x.data());
-  return false;
+  const bool changed = stale(w) ? rebuild(w, partition, false) : (halo_->update(w.x.data()), false);
+  // Every path above has sent the owned rows of x~ to the ghosts (rebuild too): keep
+  // them, so that update_final sends only what the contact response changes.
+  halo_->keep_sent(w.x.data());
+  return changed;
 }
 
 // True (on every rank) when some owned vertex has moved skin/2 since the set was built.

@@ -3,6 +3,7 @@
 #include <petscsf.h>
 
 #include <algorithm>
+#include <cstring>
 
 #include "softcontact/error.hpp"
 #include "softcontact/mpi_util.hpp"
@@ -13,7 +14,7 @@ namespace {
 void petsc_check(PetscErrorCode e, const char* what) {
   if (e != 0) throw RuntimeFailure(std::string("PETSc failed in ") + what + " (error " + std::to_string(e) + ")");
 }
-constexpr int kTagSize = 7101, kTagData = 7102;
+constexpr int kTagSize = 7101, kTagData = 7102, kTagRows = 7103, kTagChanged = 7104;
 }  // namespace
 
 std::vector<index_t> owner_vertex_offsets(const World& w) {
@@ -56,6 +57,34 @@ Halo::Halo(MPI_Comm comm, const World& w) : comm_(comm) {
                               PETSC_COPY_VALUES, remote.data(), PETSC_COPY_VALUES),
               "PetscSFSetGraph");
   petsc_check(PetscSFSetUp(sf), "PetscSFSetUp");
+
+  // For update_changed: each rank tells the owners of its ghosts which of their rows it
+  // holds (the roots' indices, in its ghost-row order), so that an owner can send a row
+  // by its place in that list. The neighbours are symmetric ("within reach" is), so
+  // every rank expects a list from each of its neighbours.
+  const std::size_t nn = neighbors_.size();
+  recv_rows_.assign(nn, {});
+  std::vector<std::vector<char>> want(nn);
+  for (std::size_t i = no; i < n; ++i) {
+    const auto at = std::lower_bound(neighbors_.begin(), neighbors_.end(), static_cast<int>(remote[i - no].rank));
+    const auto k = static_cast<std::size_t>(at - neighbors_.begin());
+    recv_rows_[k].push_back(static_cast<index_t>(i));
+    const auto root = static_cast<index_t>(remote[i - no].index);
+    const char* b = reinterpret_cast<const char*>(&root);
+    want[k].insert(want[k].end(), b, b + sizeof(index_t));
+  }
+  const std::int64_t before = bytes_received_;
+  const std::vector<std::vector<char>> asked = exchange_with(neighbors_, want);
+  bytes_received_ = before;  // set-up traffic, not the halo's per-step figure
+  send_rows_.assign(nn, {});
+  for (std::size_t k = 0; k < nn; ++k) {
+    send_rows_[k].resize(asked[k].size() / sizeof(index_t));
+    std::memcpy(send_rows_[k].data(), asked[k].data(), send_rows_[k].size() * sizeof(index_t));
+    for (index_t r : send_rows_[k])
+      if (r < 0 || static_cast<std::size_t>(r) >= no)
+        throw RuntimeFailure("Halo: rank " + std::to_string(neighbors_[k]) + " asks for row " + std::to_string(r) +
+                             " of " + std::to_string(no) + " owned rows");
+  }
 }
 
 Halo::~Halo() {
@@ -71,6 +100,68 @@ void Halo::update(double* xyz) {
   petsc_check(PetscSFBcastBegin(sf, xyz_type_, xyz, xyz, MPI_REPLACE), "PetscSFBcastBegin");
   petsc_check(PetscSFBcastEnd(sf, xyz_type_, xyz, xyz, MPI_REPLACE), "PetscSFBcastEnd");
   bytes_received_ += ghost_rows_ * 3 * static_cast<std::int64_t>(sizeof(double));
+}
+
+void Halo::keep_sent(const double* xyz) {
+  kept_.resize(send_rows_.size());
+  for (std::size_t k = 0; k < send_rows_.size(); ++k) {
+    std::vector<double>& v = kept_[k];
+    v.resize(3 * send_rows_[k].size());
+    for (std::size_t j = 0; j < send_rows_[k].size(); ++j)
+      std::memcpy(&v[3 * j], xyz + 3 * static_cast<std::size_t>(send_rows_[k][j]), 3 * sizeof(double));
+  }
+  kept_valid_ = true;
+}
+
+void Halo::update_changed(double* xyz) {
+  if (!kept_valid_) throw RuntimeFailure("Halo::update_changed without the rows of the last update (keep_sent)");
+  kept_valid_ = false;
+  const std::size_t nn = neighbors_.size();
+  std::vector<std::vector<char>> out(nn);
+  std::vector<MPI_Request> req(nn);
+  for (std::size_t k = 0; k < nn; ++k) {
+    // A bit per listed row (1: changed), padded to whole doubles, then the changed rows.
+    const std::vector<index_t>& rows = send_rows_[k];
+    const std::size_t mask_bytes = 8 * ((rows.size() + 63) / 64);
+    std::vector<char>& m = out[k];
+    m.assign(mask_bytes, 0);
+    for (std::size_t j = 0; j < rows.size(); ++j) {
+      const double* now = xyz + 3 * static_cast<std::size_t>(rows[j]);
+      if (std::memcmp(now, &kept_[k][3 * j], 3 * sizeof(double)) == 0) continue;
+      m[j / 8] = static_cast<char>(m[j / 8] | (1 << (j % 8)));
+      const char* b = reinterpret_cast<const char*>(now);
+      m.insert(m.end(), b, b + 3 * sizeof(double));
+    }
+    MPI_Isend(m.data(), static_cast<int>(m.size()), MPI_BYTE, neighbors_[k], kTagChanged, comm_, &req[k]);
+  }
+  std::vector<char> in;
+  for (std::size_t k = 0; k < nn; ++k) {
+    MPI_Message msg;
+    MPI_Status st;
+    MPI_Mprobe(neighbors_[k], kTagChanged, comm_, &msg, &st);
+    int count = 0;
+    MPI_Get_count(&st, MPI_BYTE, &count);
+    in.resize(static_cast<std::size_t>(count));
+    MPI_Mrecv(in.data(), count, MPI_BYTE, &msg, MPI_STATUS_IGNORE);
+    bytes_received_ += count;
+    const std::vector<index_t>& rows = recv_rows_[k];
+    const std::size_t mask_bytes = 8 * ((rows.size() + 63) / 64);
+    std::size_t at = mask_bytes;
+    if (in.size() < mask_bytes)
+      throw RuntimeFailure("Halo: rank " + std::to_string(neighbors_[k]) + " sent " + std::to_string(count) +
+                           " bytes of changed rows, less than the mask of " + std::to_string(rows.size()) + " rows");
+    for (std::size_t j = 0; j < rows.size(); ++j) {
+      if (!((static_cast<unsigned char>(in[j / 8]) >> (j % 8)) & 1u)) continue;
+      if (at + 3 * sizeof(double) > in.size())
+        throw RuntimeFailure("Halo: rank " + std::to_string(neighbors_[k]) + " sent too few changed rows");
+      std::memcpy(xyz + 3 * static_cast<std::size_t>(rows[j]), in.data() + at, 3 * sizeof(double));
+      at += 3 * sizeof(double);
+    }
+    if (at != in.size())
+      throw RuntimeFailure("Halo: rank " + std::to_string(neighbors_[k]) + " sent " + std::to_string(in.size() - at) +
+                           " bytes more than its changed rows");
+  }
+  MPI_Waitall(static_cast<int>(nn), req.data(), MPI_STATUSES_IGNORE);
 }
 
 std::vector<std::vector<char>> Halo::exchange_bytes(const std::vector<std::vector<char>>& send) {

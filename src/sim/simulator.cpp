@@ -334,7 +334,7 @@ void Simulator::contact_response() {
 void Simulator::refresh_final_ghosts() {
   if (!ghosts_->active()) return;
   const double t = MPI_Wtime();
-  ghosts_->update(world_.x.data());
+  ghosts_->update_final(world_);
   times_.comm += MPI_Wtime() - t;
   core_->update_anchors();
   cross_collisions_ = 0;
