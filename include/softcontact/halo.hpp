@@ -34,16 +34,18 @@ public:
   Halo(const Halo&) = delete;
   Halo& operator=(const Halo&) = delete;
 
-  /// Copies the owners' rows of `xyz` (n_local,3) into the ghost rows. Collective.
+  /// Copies the owners' rows of `xyz` (n_local,3) into the ghost rows. Forgets what
+  /// keep_sent() kept (the array may be another one). Collective.
   void update(double* xyz);
   /// Keeps the owned rows of `xyz` that the neighbours' ghosts hold, as update() has just
-  /// sent them, for one update_changed().
+  /// sent them, for update_changed().
   void keep_sent(const double* xyz);
   bool has_kept() const { return kept_valid_; }
-  /// update()'s result when the ghost rows hold what keep_sent() kept: each owner sends a
+  /// update()'s result when the ghost rows hold what is kept: each owner sends a
   /// neighbour only the rows that differ from it bitwise (a bit per row the neighbour
-  /// holds, then those rows), and the other rows stay as they are. One message each way
-  /// per neighbour. Uses the kept rows up. Collective over the neighbours.
+  /// holds, then those rows), and the other rows stay as they are; then keeps the rows
+  /// sent, so that updates of the same array can follow one another. One message each
+  /// way per neighbour. Collective over the neighbours.
   void update_changed(double* xyz);
 
   // NeighbourExchange (exchange.hpp), over `comm`.

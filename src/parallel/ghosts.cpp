@@ -72,8 +72,12 @@ void GhostSet::drop() {
 
 void GhostSet::update_final(World& w) {
   if (!halo_) return;
-  if (halo_->has_kept()) halo_->update_changed(w.x.data());
-  else halo_->update(w.x.data());
+  if (halo_->has_kept()) {
+    halo_->update_changed(w.x.data());
+  } else {
+    halo_->update(w.x.data());
+    halo_->keep_sent(w.x.data());
+  }
 }
 
 // While no owned vertex has moved skin/2 since the set was built, no ghosted pair's boxes
@@ -130,10 +134,18 @@ bool GhostSet::refresh_predicted(World& w, const std::vector<int>& partition) {
   if (!halo_) return false;
   std::copy(w.x.begin() + static_cast<std::ptrdiff_t>(3 * w.n_owned), w.x.end(),
             w.x_prev.begin() + static_cast<std::ptrdiff_t>(3 * w.n_owned));
-  const bool changed = stale(w) ? rebuild(w, partition, false) : (halo_->update(w.x.data()), false);
-  // Every path above has sent the owned rows of x~ to the ghosts (rebuild too): keep
-  // them, so that update_final sends only what the contact response changes.
-  halo_->keep_sent(w.x.data());
+  bool changed = false;
+  if (stale(w)) {
+    changed = rebuild(w, partition, false);  // sends x~ in full, new halo or not
+    halo_->keep_sent(w.x.data());
+  } else if (halo_->has_kept()) {
+    // The ghosts hold x^t, as the last update_final left them: only the rows the
+    // unconstrained motion moved travel (not a kinematic object's, nor fixed vertices').
+    halo_->update_changed(w.x.data());
+  } else {
+    halo_->update(w.x.data());
+    halo_->keep_sent(w.x.data());
+  }
   return changed;
 }
 

@@ -100,6 +100,7 @@ void Halo::update(double* xyz) {
   petsc_check(PetscSFBcastBegin(sf, xyz_type_, xyz, xyz, MPI_REPLACE), "PetscSFBcastBegin");
   petsc_check(PetscSFBcastEnd(sf, xyz_type_, xyz, xyz, MPI_REPLACE), "PetscSFBcastEnd");
   bytes_received_ += ghost_rows_ * 3 * static_cast<std::int64_t>(sizeof(double));
+  kept_valid_ = false;
 }
 
 void Halo::keep_sent(const double* xyz) {
@@ -115,7 +116,6 @@ void Halo::keep_sent(const double* xyz) {
 
 void Halo::update_changed(double* xyz) {
   if (!kept_valid_) throw RuntimeFailure("Halo::update_changed without the rows of the last update (keep_sent)");
-  kept_valid_ = false;
   const std::size_t nn = neighbors_.size();
   std::vector<std::vector<char>> out(nn);
   std::vector<MPI_Request> req(nn);
@@ -128,6 +128,7 @@ void Halo::update_changed(double* xyz) {
     for (std::size_t j = 0; j < rows.size(); ++j) {
       const double* now = xyz + 3 * static_cast<std::size_t>(rows[j]);
       if (std::memcmp(now, &kept_[k][3 * j], 3 * sizeof(double)) == 0) continue;
+      std::memcpy(&kept_[k][3 * j], now, 3 * sizeof(double));
       m[j / 8] = static_cast<char>(m[j / 8] | (1 << (j % 8)));
       const char* b = reinterpret_cast<const char*>(now);
       m.insert(m.end(), b, b + 3 * sizeof(double));

@@ -1,7 +1,8 @@
 // The halo's update of changed rows only (Halo::keep_sent, Halo::update_changed): after a
-// full broadcast, an update that sends each neighbour only the owned rows that differ
+// full broadcast, updates that send each neighbour only the owned rows that differ
 // bitwise from what it holds must leave every ghost row exactly as a full broadcast
-// would, and must carry a bit per held row plus 24 bytes per changed row. On 1 to 4
+// would, one after another, and must carry a bit per held row plus 24 bytes per changed
+// row. On 1 to 4
 // ranks (ctest mpi.npN), every rank ghosting every other rank's objects. Reference: the
 // rows' values as functions of their global ids, computed here, not by the halo.
 #include <gtest/gtest.h>
@@ -101,18 +102,26 @@ TEST(Halo, UpdateOfChangedRowsEqualsTheFullBroadcast) {
   EXPECT_EQ(ghost_rows_hold(after), 0u) << "rank " << rank;
   EXPECT_EQ(halo.bytes_received() - bytes0, expected) << "rank " << rank;
 
-  // The kept rows are used up: a second update_changed needs a new keep_sent.
-  EXPECT_THROW(halo.update_changed(w.x.data()), RuntimeFailure);
-
-  // Nothing changed since the last keep: only the masks travel, every row stays.
-  halo.update(w.x.data());
-  halo.keep_sent(w.x.data());
+  // The rows sent are kept: a second update with nothing changed sends only the masks
+  // and leaves every row.
   const std::int64_t bytes1 = halo.bytes_received();
   halo.update_changed(w.x.data());
   std::int64_t masks = 0;
   for (const auto& [owner, rows] : rows_of) masks += 8 * ((rows + 63) / 64);
   EXPECT_EQ(halo.bytes_received() - bytes1, masks);
   EXPECT_EQ(ghost_rows_hold(after), 0u);
+
+  // And back: the same rows change again, relative to what was sent last.
+  fill_owned(before);
+  const std::int64_t bytes2 = halo.bytes_received();
+  halo.update_changed(w.x.data());
+  EXPECT_EQ(ghost_rows_hold(before), 0u) << "rank " << rank;
+  EXPECT_EQ(halo.bytes_received() - bytes2, expected) << "rank " << rank;
+
+  // A full update (of any array) forgets the kept rows: update_changed needs keep_sent.
+  halo.update(w.x.data());
+  EXPECT_FALSE(halo.has_kept());
+  EXPECT_THROW(halo.update_changed(w.x.data()), RuntimeFailure);
 
   // Every rank's verdict on rank 0, which alone prints.
   int ok = ::testing::Test::HasFailure() ? 0 : 1;
