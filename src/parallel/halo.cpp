@@ -14,7 +14,7 @@ namespace {
 void petsc_check(PetscErrorCode e, const char* what) {
   if (e != 0) throw RuntimeFailure(std::string("PETSc failed in ") + what + " (error " + std::to_string(e) + ")");
 }
-constexpr int kTagSize = 7101, kTagData = 7102, kTagRows = 7103, kTagChanged = 7104;
+constexpr int kTagSize = 7101, kTagData = 7102, kTagChanged = 7104;
 }  // namespace
 
 std::vector<index_t> owner_vertex_offsets(const World& w) {
