@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <sstream>
 
 #include "h5_util.hpp"
 #include "softcontact/contact.hpp"
@@ -33,12 +34,11 @@ private:
   std::uint64_t h_ = 14695981039346656037ull;
 };
 
-}  // namespace
-
-std::uint64_t scene_fingerprint(const Scene& scene) {
+/// scene_fingerprint with the time step `dt` in place of the scene's.
+std::uint64_t fingerprint_with_dt(const Scene& scene, double dt) {
   Fingerprint f;
   const Simulation& s = scene.sim;
-  f.value(s.dt);
+  f.value(dt);
   f.value(s.gravity);
   f.value(s.integrator);
   f.value(s.self_collisions);
@@ -75,6 +75,10 @@ std::uint64_t scene_fingerprint(const Scene& scene) {
   }
   return f.get();
 }
+
+}  // namespace
+
+std::uint64_t scene_fingerprint(const Scene& scene) { return fingerprint_with_dt(scene, scene.sim.dt); }
 
 namespace checkpoint {
 
@@ -179,11 +183,23 @@ CheckpointInfo read_run_file(const std::string& path) {
 }
 
 void check_against_scene(const CheckpointInfo& info, const Scene& scene, const std::string& path) {
-  if (scene_fingerprint(scene) != info.fingerprint)
+  if (scene_fingerprint(scene) != info.fingerprint) {
+    // Everything but the step the same: the stable step of 'dt: auto' is computed
+    // differently by this build than by the one that wrote the checkpoint.
+    if (info.dt != scene.sim.dt && fingerprint_with_dt(scene, info.dt) == info.fingerprint) {
+      std::ostringstream s;
+      s.precision(17);
+      s << "the scene it continues ('" << info.scene_path << "') is unchanged, but its time step now comes out as dt = "
+        << scene.sim.dt << " s against dt = " << info.dt
+        << " s when the checkpoint was written (a softcontact version that computes the stable step of 'dt: auto' "
+           "differently), so the run cannot continue bitwise; run the scene again from its start";
+      throw InputError(path, 0, s.str());
+    }
     throw InputError(path, 0,
                      "the scene it continues ('" + info.scene_path +
                          "', as stored in the checkpoint) now reads differently: a mesh file it uses has changed or "
                          "moved since the checkpoint was written, so the run cannot continue bitwise");
+  }
   // The fingerprint covers both counts; a damaged file may still disagree with itself.
   const auto objects = scene.objects.size();
   std::int64_t vertices = 0;
