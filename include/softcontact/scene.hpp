@@ -239,10 +239,12 @@ struct SceneLimits {
   /// it (`run` and `bench` load so: docs/architecture.md, "Who holds which mesh").
   bool hold_copy_meshes = true;
   /// How ranks share the parser's costliest per-object work, the highest tet frequency of
-  /// every movable object for the stable step (a 12 x 12 eigenproblem per tet): this rank
-  /// computes the objects k with k % parts == part, zeros elsewhere, and `sum` adds the
-  /// ranks' vectors element by element (an MPI_Allreduce), so that every rank has every
-  /// object's value, computed exactly as on one rank. parts = 1: all on this rank.
+  /// every distinct mesh of a movable object for the stable step (a 12 x 12 eigenproblem
+  /// per tet; the copies of an entry share their entry's): this rank computes the k-th
+  /// distinct mesh for k % parts == part, zeros elsewhere, and `sum` adds the ranks'
+  /// vectors (one value per object) element by element (an MPI_Allreduce), so that every
+  /// rank has every object's value, computed exactly as on one rank. parts = 1: all on
+  /// this rank.
   int part = 0;
   int parts = 1;
   std::function<void(std::vector<double>&)> sum;
@@ -289,6 +291,8 @@ struct StableStep {
 /// objects. Not multiplied by the safety factor; dt = +inf when nothing can move.
 /// With the mesh bound, omega is instead a certified upper bound on the object's assembled
 /// highest frequency (mesh_max_frequency in forces.hpp), computed once per scene entry.
+/// Either omega is computed once per distinct mesh: the copies of an entry take their
+/// entry's (docs/models.md, "Stability limit").
 /// The first form takes the scene's simulation.dt_bound.
 StableStep stable_step(const Scene& scene);
 StableStep stable_step(const Scene& scene, DtBound bound);

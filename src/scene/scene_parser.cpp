@@ -675,6 +675,46 @@ double max_tet_frequency(const TetMesh& m, const Material& mat) {
   return nan ? std::numeric_limits<double>::quiet_NaN() : wmax;
 }
 
+/// The highest tet frequency of every movable object (0 for kinematic ones), computed once
+/// per distinct mesh: the copies of a multi-copy entry are rigid motions of their entry's
+/// mesh (Placement::base) with one material, so they all take the frequency of that mesh
+/// as the entry placed it (their placed meshes would give the same eigenvalues but for
+/// the rounding of the placement); any other object its own mesh's. The meshes are shared
+/// over the parts (the k-th distinct mesh on part k % parts; SceneLimits::sum adds the
+/// parts' vectors), each value computed exactly as on one part.
+std::vector<double> object_frequencies(const Scene& scene, int part, int parts,
+                                       const std::function<void(std::vector<double>&)>& sum) {
+  const std::size_t n = scene.objects.size();
+  std::vector<double> frequency(n, 0.0);
+  std::vector<std::size_t> from(n);  // the object whose value object i takes
+  std::vector<std::size_t> units;    // the objects whose mesh is computed, in object order
+  std::map<std::pair<const TetMesh*, int>, std::size_t> first;  // (entry mesh, material) -> its first copy
+  for (std::size_t i = 0; i < n; ++i) {
+    const SceneObject& o = scene.objects[i];
+    if (o.kinematic) continue;
+    from[i] = i;
+    if (o.placement.can_remake()) {
+      const auto [it, fresh] = first.emplace(std::make_pair(o.placement.base.get(), o.material), i);
+      from[i] = it->second;
+      if (!fresh) continue;
+    }
+    units.push_back(i);
+  }
+  const bool shared = parts > 1 && sum;
+  for (std::size_t k = 0; k < units.size(); ++k) {
+    if (shared && static_cast<int>(k % static_cast<std::size_t>(parts)) != part) continue;
+    const std::size_t i = units[k];
+    const SceneObject& o = scene.objects[i];
+    const Material& mat = scene.materials[o.material];
+    frequency[i] = o.placement.can_remake() ? max_tet_frequency(*o.placement.base, mat)
+                                            : max_tet_frequency(scene.view_mesh(i).get(), mat);
+  }
+  if (shared) sum(frequency);  // 0 + w is w, NaN stays NaN: each value as computed alone
+  for (std::size_t i = 0; i < n; ++i)
+    if (!scene.objects[i].kinematic) frequency[i] = frequency[from[i]];
+  return frequency;
+}
+
 /// Folds object i, with highest tet frequency w_element, into the scene's limit by
 /// `bound`: its damped bound (damped_stable_step with its material's Rayleigh damping) at
 /// its omega if smaller. The bound falls with omega, so an upper bound on the object's
@@ -756,12 +796,7 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path, c
   // inf or NaN, and then no time step is stable.
   StableStep stable;
   std::map<int, MeshFrequency> mesh_cache;
-  const bool shared = limits.parts > 1 && limits.sum;
-  std::vector<double> frequency(scene.objects.size(), 0.0);
-  for (std::size_t i = 0; i < scene.objects.size(); ++i)
-    if (!scene.objects[i].kinematic && (!shared || static_cast<int>(i % static_cast<std::size_t>(limits.parts)) == limits.part))
-      frequency[i] = max_tet_frequency(scene.view_mesh(i).get(), scene.materials[scene.objects[i].material]);
-  if (shared) limits.sum(frequency);  // 0 + w is w, NaN stays NaN: each value as computed alone
+  const std::vector<double> frequency = object_frequencies(scene, limits.part, limits.parts, limits.sum);
   for (std::size_t i = 0; i < scene.objects.size(); ++i) {
     const SceneObject& o = scene.objects[i];
     if (o.kinematic) continue;
@@ -832,10 +867,9 @@ StableStep stable_step(const Scene& scene) { return stable_step(scene, scene.sim
 StableStep stable_step(const Scene& scene, DtBound bound) {
   StableStep stable;
   std::map<int, MeshFrequency> mesh_cache;
+  const std::vector<double> frequency = object_frequencies(scene, 0, 1, nullptr);
   for (std::size_t i = 0; i < scene.objects.size(); ++i)
-    if (!scene.objects[i].kinematic)
-      take_smaller(stable, scene, i, max_tet_frequency(scene.view_mesh(i).get(), scene.materials[scene.objects[i].material]),
-                   bound, mesh_cache);
+    if (!scene.objects[i].kinematic) take_smaller(stable, scene, i, frequency[i], bound, mesh_cache);
   return stable;
 }
 

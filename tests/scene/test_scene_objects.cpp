@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "softcontact/error.hpp"
+#include "softcontact/forces.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/surface.hpp"
 
@@ -257,5 +258,66 @@ TEST(SceneObjects, FullRegionIsReportedByEveryPartAtItsEntry) {
         EXPECT_EQ(std::string(e.what()), expected) << "part " << p << " of " << parts;
       }
     }
+  }
+}
+
+// The stable step takes one highest tet frequency per distinct mesh: the copies of an
+// entry (grid and random, rotated) are rigid motions of the entry's mesh, so each takes
+// the frequency of that mesh, and the parser computes it once per entry, not once per
+// copy. Reference: every copy's placed mesh, tet by tet (tet_max_frequency here, not the
+// parser's path); placing rounds, so the two agree to a few ulps, not bitwise. Shared
+// over two parts (SceneLimits::sum), each part computes its share of the three distinct
+// meshes (the box entry, the ball entry, the single cube) and the sum gives every part
+// the one-part step bitwise.
+TEST(SceneObjects, CopiesOfAnEntryTakeTheFrequencyOfItsMesh) {
+  const std::string text = kScene + R"(  - name: cube
+    material: rubber
+    primitive: {type: box, size: [0.3, 0.2, 0.25], cells: [2, 1, 2]}
+    transform: {translate: [1.2, 1.2, 0.3]}
+)";
+  const Scene one = load_scene_from_string(text, "scene.yaml");
+  ASSERT_EQ(one.objects.size(), 1u + 6u + 12u + 1u);
+  double wmax = 0;
+  for (std::size_t k = 0; k < one.objects.size(); ++k) {
+    if (one.objects[k].kinematic) continue;
+    const TetMesh& m = one.objects[k].mesh;
+    for (std::size_t t = 0; t < m.num_tets(); ++t) {
+      double X[12];
+      for (int c = 0; c < 4; ++c)
+        for (int d = 0; d < 3; ++d) X[3 * c + d] = m.points[3 * static_cast<std::size_t>(m.tets[4 * t + c]) + d];
+      wmax = std::max(wmax, tet_max_frequency(X, one.materials[0]));
+    }
+  }
+  ASSERT_GT(wmax, 0);
+  EXPECT_NEAR(stable_time_step(one), 2 / wmax, 1e-12 * (2 / wmax));
+  EXPECT_EQ(one.sim.dt, one.sim.dt_safety * stable_time_step(one)) << "the run's step and stable_step agree";
+
+  // Two parts: what each computes alone (a part with zeros elsewhere may refuse the
+  // scene), then each with the other's values added, as MPI_Allreduce would.
+  std::vector<double> mine[2];
+  for (int p : {0, 1}) {
+    SceneLimits l = lean();
+    l.part = p;
+    l.parts = 2;
+    l.sum = [&mine, p](std::vector<double>& v) { mine[p] = v; };
+    try {
+      (void)load_scene_from_string(text, "scene.yaml", l);
+    } catch (const InputError&) {
+    }
+  }
+  const auto computed = [&](int p) {
+    return std::count_if(mine[p].begin(), mine[p].end(), [](double w) { return w != 0; });
+  };
+  EXPECT_EQ(computed(0), 2) << "part 0: the box entry and the cube, each once";
+  EXPECT_EQ(computed(1), 1) << "part 1: the ball entry, once";
+  for (int p : {0, 1}) {
+    SceneLimits l = lean();
+    l.part = p;
+    l.parts = 2;
+    l.sum = [&mine, p](std::vector<double>& v) {
+      ASSERT_EQ(v, mine[p]);
+      for (std::size_t k = 0; k < v.size(); ++k) v[k] = mine[0][k] + mine[1][k];
+    };
+    EXPECT_EQ(load_scene_from_string(text, "scene.yaml", l).sim.dt, one.sim.dt) << "part " << p;
   }
 }
