@@ -4,6 +4,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace softcontact {
@@ -14,6 +15,22 @@ using gid_t = std::int64_t;     ///< global id: never changes, unique across the
 /// Corner pairs of the six edges of a tet (corners 0..3), in the one order every part of
 /// the code uses (rest lengths, mesh edges, edge statistics).
 inline constexpr int kTetEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+
+/// A triangle or tet face by its three vertex indices in ascending order: the key by which
+/// faces are matched (surface extraction, tet-face neighbours). Compared element by
+/// element: std::array's == on integers is a call to memcmp, which dominated those sorts.
+using FaceKey = std::array<index_t, 3>;
+
+inline FaceKey face_key(index_t a, index_t b, index_t c) {
+  if (a > b) std::swap(a, b);
+  if (b > c) std::swap(b, c);
+  if (a > b) std::swap(a, b);
+  return {a, b, c};
+}
+inline bool same_face(const FaceKey& a, const FaceKey& b) { return a[0] == b[0] && a[1] == b[1] && a[2] == b[2]; }
+inline bool face_less(const FaceKey& a, const FaceKey& b) {
+  return a[0] != b[0] ? a[0] < b[0] : a[1] != b[1] ? a[1] < b[1] : a[2] < b[2];
+}
 
 struct TetMesh {
   std::vector<double> points;    ///< (n,3) interleaved x,y,z [m]

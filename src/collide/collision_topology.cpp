@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 
+#include "parallel.hpp"
 #include "thickness.hpp"
 #include "softcontact/surface.hpp"
 
@@ -12,77 +13,87 @@ namespace softcontact::collide {
 namespace {
 
 struct FaceRecord {
-  std::array<index_t, 3> key;  // vertex indices, ascending
-  index_t owner;               // tet, or -(triangle + 1) for a surface triangle
-  int slot;                    // face j of the tet; -1 for a triangle
+  FaceKey key;    // vertex indices, ascending
+  index_t owner;  // tet, or -(triangle + 1) for a surface triangle
+  int slot;       // face j of the tet; -1 for a triangle
 };
 
 bool key_less(const FaceRecord& a, const FaceRecord& b) {
-  if (a.key != b.key) return a.key < b.key;
+  if (!same_face(a.key, b.key)) return face_less(a.key, b.key);
   return a.owner > b.owner;  // tets (>= 0) before triangles (< 0), then by index; a fixed order
-}
-
-std::array<index_t, 3> sorted3(index_t a, index_t b, index_t c) {
-  std::array<index_t, 3> k{a, b, c};
-  std::sort(k.begin(), k.end());
-  return k;
 }
 
 // Tet faces with their neighbours: sort all tet faces and surface triangles by vertex
 // triple; a run of two tet faces is an interior face, a tet face with a triangle is a
 // boundary face; anything else (a face of three or more tets, a face without either) is
-// left open.
+// left open. Objects share no vertex, so no face matches across objects: each object is
+// matched on its own (its records in one buffer per thread, reused), in parallel, each
+// writing only its own tets' entries; open faces are counted per object and added in
+// slot order.
 void build_faces(const World& w, CollisionTopology& t) {
-  const std::size_t m = w.tets.size() / 4, s = w.triangles.size() / 3;
-  std::vector<FaceRecord> faces;
-  faces.reserve(4 * m + s);
-  for (std::size_t e = 0; e < m; ++e) {
-    const index_t* v = &w.tets[4 * e];
-    for (int j = 0; j < 4; ++j) {
-      index_t c[3], k = 0;
-      for (int q = 0; q < 4; ++q)
-        if (q != j) c[k++] = v[q];
-      faces.push_back({sorted3(c[0], c[1], c[2]), static_cast<index_t>(e), j});
-    }
-  }
-  for (std::size_t r = 0; r < s; ++r) {
-    const index_t* v = &w.triangles[3 * r];
-    faces.push_back({sorted3(v[0], v[1], v[2]), -static_cast<index_t>(r) - 1, -1});
-  }
-  std::sort(faces.begin(), faces.end(), key_less);
+  const std::size_t m = w.tets.size() / 4;
   t.face_neighbour.assign(4 * m, kOpenFace);
   t.boundary_mask.assign(m, 0);
-  for (std::size_t a = 0; a < faces.size();) {
-    std::size_t b = a;
-    while (b < faces.size() && faces[b].key == faces[a].key) ++b;
-    int ntets = 0;
-    index_t triangle = 0;
-    bool has_triangle = false;
-    for (std::size_t q = a; q < b; ++q) {
-      if (faces[q].slot >= 0)
-        ++ntets;
-      else if (!has_triangle) {
-        has_triangle = true;
-        triangle = faces[q].owner;
+  std::vector<std::int64_t> open(t.objects.size(), 0);
+  // Every buffer is sized for the largest object before the parallel loop, which then
+  // allocates nothing: an exhausted memory is a std::bad_alloc here, reported as such, not
+  // an exception escaping an OpenMP region (std::terminate).
+  std::size_t largest = 0;
+  for (const ObjectInfo& o : t.objects) largest = std::max(largest, 4 * o.tets.size() + o.triangles.size());
+  std::vector<std::vector<FaceRecord>> buffers;
+  reset_buffers(buffers);
+  for (auto& b : buffers) b.reserve(largest);
+  parallel_for_dynamic(t.objects.size(), [&](std::size_t k, int thread) {
+    const ObjectInfo& o = t.objects[k];
+    std::vector<FaceRecord>& faces = buffers[static_cast<std::size_t>(thread)];
+    faces.clear();
+    for (index_t e : o.tets) {
+      const index_t* v = &w.tets[4 * static_cast<std::size_t>(e)];
+      for (int j = 0; j < 4; ++j) {
+        index_t c[3], n = 0;
+        for (int q = 0; q < 4; ++q)
+          if (q != j) c[n++] = v[q];
+        faces.push_back({face_key(c[0], c[1], c[2]), e, j});
       }
     }
-    if (ntets == 2 && !has_triangle) {
-      const FaceRecord &f = faces[a], &g = faces[a + 1];
-      t.face_neighbour[4 * static_cast<std::size_t>(f.owner) + f.slot] = g.owner;
-      t.face_neighbour[4 * static_cast<std::size_t>(g.owner) + g.slot] = f.owner;
-    } else {
+    for (index_t r : o.triangles) {
+      const index_t* v = &w.triangles[3 * static_cast<std::size_t>(r)];
+      faces.push_back({face_key(v[0], v[1], v[2]), -r - 1, -1});
+    }
+    std::sort(faces.begin(), faces.end(), key_less);
+    for (std::size_t a = 0; a < faces.size();) {
+      std::size_t b = a;
+      while (b < faces.size() && same_face(faces[b].key, faces[a].key)) ++b;
+      int ntets = 0;
+      index_t triangle = 0;
+      bool has_triangle = false;
       for (std::size_t q = a; q < b; ++q) {
-        if (faces[q].slot < 0) continue;
-        const std::size_t e = static_cast<std::size_t>(faces[q].owner);
-        t.boundary_mask[e] |= static_cast<std::uint8_t>(1u << faces[q].slot);
-        if (ntets == 1 && has_triangle)
-          t.face_neighbour[4 * e + faces[q].slot] = triangle;
-        else
-          ++t.open_faces;
+        if (faces[q].slot >= 0)
+          ++ntets;
+        else if (!has_triangle) {
+          has_triangle = true;
+          triangle = faces[q].owner;
+        }
       }
+      if (ntets == 2 && !has_triangle) {
+        const FaceRecord &f = faces[a], &g = faces[a + 1];
+        t.face_neighbour[4 * static_cast<std::size_t>(f.owner) + f.slot] = g.owner;
+        t.face_neighbour[4 * static_cast<std::size_t>(g.owner) + g.slot] = f.owner;
+      } else {
+        for (std::size_t q = a; q < b; ++q) {
+          if (faces[q].slot < 0) continue;
+          const std::size_t e = static_cast<std::size_t>(faces[q].owner);
+          t.boundary_mask[e] |= static_cast<std::uint8_t>(1u << faces[q].slot);
+          if (ntets == 1 && has_triangle)
+            t.face_neighbour[4 * e + faces[q].slot] = triangle;
+          else
+            ++open[k];
+        }
+      }
+      a = b;
     }
-    a = b;
-  }
+  });
+  for (std::int64_t c : open) t.open_faces += c;
 }
 
 // Distinct mesh edges as a sorted adjacency (CSR) and their mean length.

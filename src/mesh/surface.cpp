@@ -15,7 +15,7 @@ Surface extract_surface(const TetMesh& mesh, std::size_t* nonmanifold_faces) {
   // Key every face by its sorted vertex triple; sort (face key, tet*4+face) so the
   // result does not depend on hash order, then keep the faces that occur once.
   struct Face {
-    std::array<index_t, 3> key;
+    FaceKey key;
     std::int64_t slot;  // tet * 4 + face
   };
   const std::size_t m = mesh.num_tets();
@@ -24,19 +24,18 @@ Surface extract_surface(const TetMesh& mesh, std::size_t* nonmanifold_faces) {
   for (std::size_t t = 0; t < m; ++t) {
     const index_t* tet = mesh.tets.data() + 4 * t;
     for (int f = 0; f < 4; ++f) {
-      std::array<index_t, 3> k{tet[kTetFaces[f][0]], tet[kTetFaces[f][1]], tet[kTetFaces[f][2]]};
-      std::sort(k.begin(), k.end());
-      faces.push_back({k, static_cast<std::int64_t>(4 * t + f)});
+      faces.push_back({face_key(tet[kTetFaces[f][0]], tet[kTetFaces[f][1]], tet[kTetFaces[f][2]]),
+                       static_cast<std::int64_t>(4 * t + f)});
     }
   }
   std::sort(faces.begin(), faces.end(), [](const Face& x, const Face& y) {
-    return x.key != y.key ? x.key < y.key : x.slot < y.slot;
+    return !same_face(x.key, y.key) ? face_less(x.key, y.key) : x.slot < y.slot;
   });
   std::vector<std::int64_t> boundary;
   std::size_t nonmanifold = 0;
   for (std::size_t i = 0; i < faces.size();) {
     std::size_t j = i + 1;
-    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
+    while (j < faces.size() && same_face(faces[j].key, faces[i].key)) ++j;
     if (j - i == 1) boundary.push_back(faces[i].slot);
     if (j - i > 2) ++nonmanifold;
     i = j;

@@ -1,0 +1,121 @@
+// The tet-face adjacency of the collision topology (build_collision_topology) against a
+// search over every face of the whole world at once.
+#include <gtest/gtest.h>
+
+#include <omp.h>
+
+#include <algorithm>
+#include <array>
+#include <map>
+#include <random>
+#include <vector>
+
+#include "collide/collision_topology.hpp"
+#include "collide_test_util.hpp"
+
+using namespace softcontact;
+using namespace softcontact::collide;
+
+namespace {
+
+struct Expected {
+  std::vector<index_t> neighbour;
+  std::vector<std::uint8_t> mask;
+  std::int64_t open = 0;
+};
+
+// Every tet face and surface triangle of the world in one map keyed by its sorted vertex
+// triple (no object boundaries): two tet faces are neighbours; one tet face and a
+// triangle, a boundary face with that triangle (the first in row order); anything else
+// is open. Mask bits: the boundary faces (bit j) and the corners on the surface (16 << c).
+Expected brute_force(const World& w) {
+  const std::size_t m = w.tets.size() / 4, s = w.triangles.size() / 3;
+  std::map<std::array<index_t, 3>, std::vector<std::pair<index_t, int>>> at;  // (tet, face) or (-(row + 1), -1)
+  for (std::size_t e = 0; e < m; ++e)
+    for (int j = 0; j < 4; ++j) {
+      std::array<index_t, 3> k{};
+      int n = 0;
+      for (int q = 0; q < 4; ++q)
+        if (q != j) k[n++] = w.tets[4 * e + q];
+      std::sort(k.begin(), k.end());
+      at[k].push_back({static_cast<index_t>(e), j});
+    }
+  std::vector<char> surface(w.n_local(), 0);
+  for (std::size_t r = 0; r < s; ++r) {
+    std::array<index_t, 3> k{w.triangles[3 * r], w.triangles[3 * r + 1], w.triangles[3 * r + 2]};
+    for (index_t v : k) surface[static_cast<std::size_t>(v)] = 1;
+    std::sort(k.begin(), k.end());
+    at[k].push_back({-static_cast<index_t>(r) - 1, -1});
+  }
+  Expected x;
+  x.neighbour.assign(4 * m, kOpenFace);
+  x.mask.assign(m, 0);
+  for (const auto& [key, list] : at) {
+    std::vector<std::pair<index_t, int>> tets;
+    index_t triangle = 0;
+    int triangles = 0;
+    for (const auto& f : list)
+      if (f.second >= 0) tets.push_back(f);
+      else if (triangles++ == 0) triangle = f.first;
+    if (tets.size() == 2 && triangles == 0) {
+      x.neighbour[4 * static_cast<std::size_t>(tets[0].first) + static_cast<std::size_t>(tets[0].second)] = tets[1].first;
+      x.neighbour[4 * static_cast<std::size_t>(tets[1].first) + static_cast<std::size_t>(tets[1].second)] = tets[0].first;
+      continue;
+    }
+    for (const auto& [e, j] : tets) {
+      x.mask[static_cast<std::size_t>(e)] |= static_cast<std::uint8_t>(1u << j);
+      if (tets.size() == 1 && triangles > 0) x.neighbour[4 * static_cast<std::size_t>(e) + static_cast<std::size_t>(j)] = triangle;
+      else ++x.open;
+    }
+  }
+  for (std::size_t e = 0; e < m; ++e)
+    for (int c = 0; c < 4; ++c)
+      if (surface[static_cast<std::size_t>(w.tets[4 * e + c])]) x.mask[e] |= static_cast<std::uint8_t>(16u << c);
+  return x;
+}
+
+void expect_matches(const World& w, const char* what) {
+  const Expected x = brute_force(w);
+  for (int threads : {1, 2, 3}) {
+    omp_set_num_threads(threads);
+    const CollisionTopology t = build_collision_topology(w);
+    EXPECT_EQ(t.face_neighbour, x.neighbour) << what << ", " << threads << " threads";
+    EXPECT_EQ(t.boundary_mask, x.mask) << what << ", " << threads << " threads";
+    EXPECT_EQ(t.open_faces, x.open) << what << ", " << threads << " threads";
+  }
+  omp_set_num_threads(1);
+}
+
+}  // namespace
+
+// Twelve random tori, spheres and boxes on one rank; then rank 0 of 3 with the others'
+// objects as ghosts (local indices no longer in object order); then with three surface
+// triangles removed (three boundary faces left open) and one tet duplicated (each of its
+// faces then open in every tet that has it). Every entry equal on 1, 2 and 3 threads.
+TEST(CollisionTopology, FaceNeighboursMatchASearchOverTheWholeWorld) {
+  std::mt19937_64 g(77);
+  const std::string yaml = test::random_objects_yaml(g, 12);
+  const Scene s = load_scene_from_string(std::string(test::kMaterials) + "objects:\n" + yaml, "test.yaml");
+  const World one = build_world(s, block_partition(s, 1), 0);
+  expect_matches(one, "one rank");
+  EXPECT_EQ(build_collision_topology(one).open_faces, 0);
+
+  World part = build_world(s, block_partition(s, 3), 0);
+  std::vector<int> ghosts;
+  for (int o = 0; o < static_cast<int>(s.objects.size()); ++o)
+    if (std::find(part.owned_objects.begin(), part.owned_objects.end(), o) == part.owned_objects.end()) ghosts.push_back(o);
+  ASSERT_FALSE(ghosts.empty());
+  ASSERT_LT(part.owned_objects.size(), s.objects.size());
+  set_ghost_objects(part, s, ghosts);
+  ASSERT_GT(part.ghost_objects.size(), 0u);
+  expect_matches(part, "rank 0 of 3 with ghosts");
+
+  World broken = one;
+  for (int k = 0; k < 3; ++k) broken.triangles.erase(broken.triangles.begin() + 3 * (10 + 40 * k), broken.triangles.begin() + 3 * (11 + 40 * k));
+  broken.tets.insert(broken.tets.end(), broken.tets.begin() + 4 * 5, broken.tets.begin() + 4 * 6);
+  const Expected x = brute_force(broken);
+  // Three open boundary faces; each face of the doubled tet open in all its tets (3 if
+  // interior, 2 with its triangle).
+  EXPECT_GE(x.open, 3 + 4 * 2);
+  expect_matches(broken, "triangles removed, a tet doubled");
+}
