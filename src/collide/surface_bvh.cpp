@@ -61,47 +61,50 @@ void SurfaceBvh::build(const double* x, const index_t* tri, const std::vector<in
   nodes_.clear();
   order_ = triangles;
   if (order_.empty()) return;
-  std::vector<V3> centroid(order_.size());
+  std::vector<Item> items(order_.size());
   for (std::size_t k = 0; k < order_.size(); ++k) {
     const index_t* t = tri + 3 * static_cast<std::size_t>(order_[k]);
-    centroid[k] = (1.0 / 3.0) * (load(x, t[0]) + load(x, t[1]) + load(x, t[2]));
+    items[k] = {(1.0 / 3.0) * (load(x, t[0]) + load(x, t[1]) + load(x, t[2])), order_[k]};
   }
-  build_node(centroid, 0, order_.size());
+  build_node(items, 0, items.size(), -1);
+  for (std::size_t k = 0; k < items.size(); ++k) order_[k] = items[k].triangle;
   refit(x, tri);
 }
 
-std::int32_t SurfaceBvh::build_node(std::vector<V3>& centroid, std::size_t begin, std::size_t end) {
+namespace {
+// Centroid along `axis`, ties by triangle index: a strict total order.
+auto along(int axis) {
+  return [axis](const auto& a, const auto& b) {
+    if (a.centroid[axis] != b.centroid[axis]) return a.centroid[axis] < b.centroid[axis];
+    return a.triangle < b.triangle;
+  };
+}
+}  // namespace
+
+// Splits the range at the median of the centroids along the box's longest axis. The
+// halves are selected (nth_element), not sorted: a half's set is the same either way, and
+// a child that splits again orders its own set; a leaf is sorted along its parent's axis,
+// so that every leaf lists its triangles as a full sort at every level would.
+std::int32_t SurfaceBvh::build_node(std::vector<Item>& items, std::size_t begin, std::size_t end, int parent_axis) {
   const auto id = static_cast<std::int32_t>(nodes_.size());
   nodes_.emplace_back();
+  const auto first = items.begin() + static_cast<std::ptrdiff_t>(begin), last = items.begin() + static_cast<std::ptrdiff_t>(end);
   if (end - begin <= kLeafSize) {
+    if (parent_axis >= 0) std::sort(first, last, along(parent_axis));
     nodes_[static_cast<std::size_t>(id)].first = static_cast<std::int32_t>(begin);
     nodes_[static_cast<std::size_t>(id)].count = static_cast<std::int32_t>(end - begin);
     return id;
   }
   Box cb;
   cb.reset();
-  for (std::size_t k = begin; k < end; ++k) cb.add(centroid[k]);
+  for (auto it = first; it != last; ++it) cb.add(it->centroid);
   int axis = 0;
   for (int k = 1; k < 3; ++k)
     if (cb.hi[k] - cb.lo[k] > cb.hi[axis] - cb.lo[axis]) axis = k;
-  // Sort the range by centroid along the axis (ties by triangle index), split at the median.
-  std::vector<std::size_t> idx(end - begin);
-  std::iota(idx.begin(), idx.end(), begin);
-  std::sort(idx.begin(), idx.end(), [&](std::size_t a, std::size_t b) {
-    if (centroid[a][axis] != centroid[b][axis]) return centroid[a][axis] < centroid[b][axis];
-    return order_[a] < order_[b];
-  });
-  std::vector<index_t> o(idx.size());
-  std::vector<V3> c(idx.size());
-  for (std::size_t k = 0; k < idx.size(); ++k) {
-    o[k] = order_[idx[k]];
-    c[k] = centroid[idx[k]];
-  }
-  std::copy(o.begin(), o.end(), order_.begin() + static_cast<std::ptrdiff_t>(begin));
-  std::copy(c.begin(), c.end(), centroid.begin() + static_cast<std::ptrdiff_t>(begin));
   const std::size_t mid = begin + (end - begin) / 2;
-  build_node(centroid, begin, mid);
-  const std::int32_t right = build_node(centroid, mid, end);
+  std::nth_element(first, items.begin() + static_cast<std::ptrdiff_t>(mid), last, along(axis));
+  build_node(items, begin, mid, axis);
+  const std::int32_t right = build_node(items, mid, end, axis);
   nodes_[static_cast<std::size_t>(id)].right = right;
   return id;
 }

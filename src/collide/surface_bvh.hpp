@@ -66,7 +66,11 @@ private:
     std::int32_t first = 0;   // leaf: order_[first .. first + count)
     std::int32_t count = 0;   // > 0 for a leaf
   };
-  std::int32_t build_node(std::vector<V3>& centroid, std::size_t begin, std::size_t end);
+  struct Item {
+    V3 centroid;
+    index_t triangle;
+  };
+  std::int32_t build_node(std::vector<Item>& items, std::size_t begin, std::size_t end, int parent_axis);
   std::vector<Node> nodes_;
   std::vector<index_t> order_;
 };
