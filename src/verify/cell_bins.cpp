@@ -124,6 +124,16 @@ double CellBins::inner_distance(const double* p, const Cell& c) const {
   return d > 0 ? d : 0.0;  // also NaN
 }
 
+double CellBins::distance_to_cell(const double* p, const Cell& c) const {
+  double d2 = 0;
+  for (std::size_t a = 0; a < 3; ++a) {
+    const double lo = origin_[a] + static_cast<double>(c[a]) * h_;
+    const double out = std::max({lo - p[a], p[a] - (lo + h_), 0.0});
+    d2 += out * out;
+  }
+  return std::sqrt(d2);
+}
+
 std::span<const std::int32_t> CellBins::at(const Cell& c) const {
   if (dense_) {
     for (std::size_t a = 0; a < 3; ++a)

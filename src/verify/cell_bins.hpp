@@ -41,6 +41,8 @@ public:
   /// that is not listed in the (2r+1)^3 block of cells around c is farther from p than
   /// r * cell_size() + this.
   double inner_distance(const double* p, const Cell& c) const;
+  /// Distance from p to cell c (0 when p is inside c).
+  double distance_to_cell(const double* p, const Cell& c) const;
   std::int64_t dim(int axis) const { return dims_[static_cast<std::size_t>(axis)]; }
 
 private:

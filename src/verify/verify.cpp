@@ -62,8 +62,14 @@ public:
     std::vector<double> lo, hi;
     boxes(mesh.tets.data(), 4, mesh.num_tets(), lo, hi);
     tets_.build(h, mesh.num_tets(), lo.data(), hi.data());
-    boxes(mesh.triangles.data(), 3, mesh.num_triangles(), tri_lo_, tri_hi_);
-    tris_.build(h, mesh.num_triangles(), tri_lo_.data(), tri_hi_.data());
+    boxes(mesh.triangles.data(), 3, mesh.num_triangles(), lo, hi);
+    tris_.build(h, mesh.num_triangles(), lo.data(), hi.data());
+    // Each triangle's box in one place: the crossing pass reads it for every candidate.
+    tri_box_.resize(6 * mesh.num_triangles());
+    parallel_for(mesh.num_triangles(), [&](std::size_t t) {
+      std::copy_n(&lo[3 * t], 3, &tri_box_[6 * t]);
+      std::copy_n(&hi[3 * t], 3, &tri_box_[6 * t + 3]);
+    });
   }
 
   const double* X(gid_t v) const { return x_ + 3 * static_cast<std::size_t>(v); }
@@ -95,7 +101,7 @@ public:
   bool in_body(const double* p, std::int32_t b, const Star& star = {}) const {
     auto holds = [&](std::int32_t t) {
       const auto u = static_cast<std::size_t>(t);
-      return m_.tet_object[u] == b && !touches(star, &m_.tets[4 * u], 4) && in_tet(p, u);
+      return m_.tet_object[u] == b && in_tet(p, u) && !touches(star, &m_.tets[4 * u], 4);
     };
     for (std::int32_t t : tets_.at(tets_.cell_of(p)))
       if (holds(t)) return true;
@@ -152,6 +158,11 @@ public:
             const CellBins::Cell c{c0[0] + dx, c0[1] + dy, c0[2] + dz};
             if (c[0] < 0 || c[1] < 0 || c[2] < 0 || c[0] >= tris_.dim(0) || c[1] >= tris_.dim(1) || c[2] >= tris_.dim(2))
               continue;
+            // A triangle nearer than best has its nearest point to p in a cell listing it
+            // (its box holds that point) and no farther than best from p: cells farther
+            // than that (less the margin above) cannot lower best.
+            const double gap = tris_.distance_to_cell(p, c) - tol_;
+            if (gap > 0 && gap * gap >= best2) continue;
             for (std::int32_t t : tris_.at(c))
               if (counts(static_cast<std::size_t>(t))) best2 = std::min(best2, tri_dist2(p, static_cast<std::size_t>(t)));
           }
@@ -229,8 +240,8 @@ public:
 
   double tolerance() const { return tol_; }
   const CellBins& triangle_bins() const { return tris_; }
-  const double* tri_lo(std::size_t t) const { return &tri_lo_[3 * t]; }
-  const double* tri_hi(std::size_t t) const { return &tri_hi_[3 * t]; }
+  /// Triangle t's box: lo (3), then hi (3).
+  const double* tri_box(std::size_t t) const { return &tri_box_[6 * t]; }
 
 private:
   void boxes(const gid_t* cells, int corners, std::size_t count, std::vector<double>& lo, std::vector<double>& hi) const {
@@ -257,7 +268,7 @@ private:
   const double* x_;
   double tol_ = 0;
   CellBins tets_, tris_;
-  std::vector<double> tri_lo_, tri_hi_;
+  std::vector<double> tri_box_;
 };
 
 // Count, maximum (lowest id on a tie) and 99th percentile (nearest rank) of the depths
@@ -545,18 +556,18 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
       std::vector<Hit> hits;  // allocates only for crossing edges
       const Star star{a, b};
       auto test = [&](std::size_t t) {
+        const double* box = check.tri_box(t);
+        for (int d = 0; d < 3; ++d)
+          if (box[3 + d] < lo[d] || box[d] > hi[d]) return;
         const std::int32_t body = m.triangle_object[t];
         const bool self = body == own;
         if (self ? !opt.self || m.object_fixed[static_cast<std::size_t>(own)] : check.skip_pair(own, body)) return;
-        const double *tl = check.tri_lo(t), *th = check.tri_hi(t);
-        for (int d = 0; d < 3; ++d)
-          if (th[d] < lo[d] || tl[d] > hi[d]) return;
         const gid_t* c = &m.triangles[3 * t];
-        if (self && check.touches(star, c, 3)) return;  // the edge's own neighbourhood
         bool a_outside = false;
         const double s = verify::segment_crosses_triangle(pa, pb, check.X(c[0]), check.X(c[1]), check.X(c[2]),
                                                           check.tolerance(), kBarycentricTol, a_outside);
-        if (s >= 0) hits.push_back({s, body, static_cast<std::int32_t>(t), a_outside});
+        if (s < 0 || (self && check.touches(star, c, 3))) return;  // none, or the edge's own neighbourhood
+        hits.push_back({s, body, static_cast<std::int32_t>(t), a_outside});
       };
       const CellBins::Cell c0 = bins.cell_of(lo), c1 = bins.cell_of(hi);
       for (std::int64_t cx = c0[0]; cx <= c1[0]; ++cx)

@@ -91,3 +91,18 @@ TEST(CellBins, InnerDistanceIsTheDistanceToTheNearestFaceOfTheCell) {
   EXPECT_NEAR(bins.inner_distance(p, c), 0.1, 1e-12);   // 1.9 is 0.1 below the face at 2
   EXPECT_EQ(bins.inner_distance(p, {0, 0, 0}), 0.0);    // not in that cell
 }
+
+// Distance from a point to a cell: 0 inside, the gap along one axis beside a face, the
+// Euclidean distance to the nearest corner beyond a corner (cells of edge 1 from 0).
+TEST(CellBins, DistanceToACellIsTheDistanceToItsBox) {
+  std::vector<double> lo = {0, 0, 0}, hi = {4, 4, 4};
+  CellBins bins;
+  bins.build(1.0, 1, lo.data(), hi.data());
+  const double inside[3] = {2.3, 1.9, 3.45};
+  EXPECT_EQ(bins.distance_to_cell(inside, {2, 1, 3}), 0.0);
+  EXPECT_NEAR(bins.distance_to_cell(inside, {2, 2, 3}), 0.1, 1e-12);  // that cell spans y in [2, 3]
+  const double corner[3] = {0.7, 0.6, 0.5};                     // cell {1, 1, 1}: nearest corner (1, 1, 1)
+  EXPECT_NEAR(bins.distance_to_cell(corner, {1, 1, 1}), std::sqrt(0.09 + 0.16 + 0.25), 1e-12);
+  const double above[3] = {3.5, 3.5, 3.5};                      // cell {0, 0, 0}: nearest corner (1, 1, 1)
+  EXPECT_NEAR(bins.distance_to_cell(above, {0, 0, 0}), std::sqrt(3 * 2.5 * 2.5), 1e-12);
+}
