@@ -61,10 +61,11 @@ if ! command -v clang++ >/dev/null ||
 fi
 
 # The whole library instrumented for coverage (fuzzer-no-link) and checked by ASan and
-# UBSan; only the harnesses link libFuzzer's main (tests/fuzz/CMakeLists.txt).
+# UBSan; only the harnesses link libFuzzer's main (tests/fuzz/CMakeLists.txt). Line
+# tables only: what a report prints (as in tools/sanitize.sh).
 flags="-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
 cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
-      -DCMAKE_C_FLAGS="$flags" -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" \
+      -DCMAKE_C_FLAGS="$flags" -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -gline-tables-only" \
       -DSOFTCONTACT_WITH_TESTS=OFF -DSOFTCONTACT_FUZZ=ON >/dev/null
 cmake --build "$build" -j "$jobs" --target $(printf 'fuzz_%s ' "${targets[@]}")
 

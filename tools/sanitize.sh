@@ -54,8 +54,12 @@ export OMPI_MCA_btl_vader_single_copy_mechanism=none
 source "$root/tools/env.sh"
 
 flags="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
+# -g1: line tables and function names only, which is what a sanitizer report prints
+# (file:line of every frame, inlined ones included); no local variables. The build takes
+# about a third less time than with -g (test_verify.cpp 13.1 -> 8.1 s, coupled_closure.cpp
+# 24.6 -> 17.0 s). For a debugger session on a report, rebuild with -g.
 cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=gcc -DCMAKE_CXX_COMPILER=g++ \
-      -DCMAKE_C_FLAGS="$flags" -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g -DNDEBUG" \
+      -DCMAKE_C_FLAGS="$flags" -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" \
       -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" -DSOFTCONTACT_WITH_TESTS=ON >/dev/null
 start=$(date +%s)
 cmake --build "$build" -j "$jobs" --target softcontact_tests softcontact_mpi_tests softcontact_exe
