@@ -5,40 +5,18 @@
 // its thread). With the static schedule thread t runs one contiguous, ascending block of
 // indices, so per-thread buffers concatenated in thread order list their items in index
 // order whatever the thread count; callers sort such lists anyway where order matters.
-// No atomics on shared arrays anywhere.
+// No atomics on shared arrays anywhere. What a body throws is rethrown after the loop
+// (softcontact/loop_failure.hpp).
 #include <omp.h>
 
 #include <cstddef>
-#include <exception>
 #include <vector>
+
+#include "softcontact/loop_failure.hpp"
 
 namespace softcontact::collide {
 
 inline int max_threads() { return omp_get_max_threads(); }
-
-/// An exception may not leave an OpenMP region (the runtime calls std::terminate: an
-/// abort with a stack trace), yet the loop bodies allocate, and an exhausted memory must
-/// reach the caller as a std::bad_alloc to be reported as one (docs/reliability.md,
-/// "Memory"). So each body runs in a try block; the exception of the lowest index that
-/// threw is kept (the same on any thread count) and rethrown after the loop. The other
-/// iterations still run.
-class LoopFailure {
-public:
-  void record(std::size_t i) noexcept {
-#pragma omp critical(softcontact_collide_loop_failure)
-    if (!error_ || i < index_) {
-      error_ = std::current_exception();
-      index_ = i;
-    }
-  }
-  void rethrow() const {
-    if (error_) std::rethrow_exception(error_);
-  }
-
-private:
-  std::exception_ptr error_;
-  std::size_t index_ = 0;
-};
 
 /// f(i, thread) for i in [0, n), static schedule.
 template <class F>
@@ -46,13 +24,8 @@ void parallel_for(std::size_t n, F&& f) {
   const auto count = static_cast<std::ptrdiff_t>(n);
   LoopFailure failure;
 #pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t i = 0; i < count; ++i) {
-    try {
-      f(static_cast<std::size_t>(i), omp_get_thread_num());
-    } catch (...) {
-      failure.record(static_cast<std::size_t>(i));
-    }
-  }
+  for (std::ptrdiff_t i = 0; i < count; ++i)
+    failure.run(static_cast<std::size_t>(i), f, static_cast<std::size_t>(i), omp_get_thread_num());
   failure.rethrow();
 }
 
@@ -63,13 +36,8 @@ void parallel_for_dynamic(std::size_t n, F&& f) {
   const auto count = static_cast<std::ptrdiff_t>(n);
   LoopFailure failure;
 #pragma omp parallel for schedule(dynamic, 1)
-  for (std::ptrdiff_t i = 0; i < count; ++i) {
-    try {
-      f(static_cast<std::size_t>(i), omp_get_thread_num());
-    } catch (...) {
-      failure.record(static_cast<std::size_t>(i));
-    }
-  }
+  for (std::ptrdiff_t i = 0; i < count; ++i)
+    failure.run(static_cast<std::size_t>(i), f, static_cast<std::size_t>(i), omp_get_thread_num());
   failure.rethrow();
 }
 

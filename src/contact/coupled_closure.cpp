@@ -7,6 +7,8 @@
 #include <cmath>
 #include <limits>
 
+#include "softcontact/loop_failure.hpp"
+
 namespace softcontact::contact {
 
 namespace {
@@ -187,92 +189,98 @@ std::vector<double> solve_closure(const std::vector<ClosureRow>& rows, double ep
   std::int64_t passes = 0, dropped = 0, kept_local = 0;
   int failed = 0;
   const auto ngroups = static_cast<std::ptrdiff_t>(by_size.size());
+  LoopFailure failure;  // a group whose system cannot be allocated: rethrown after the loop
 #pragma omp parallel for schedule(dynamic, 1) reduction(+ : passes, dropped, kept_local) reduction(max : failed)
   for (std::ptrdiff_t t = 0; t < ngroups; ++t) {
-    const auto g = static_cast<std::size_t>(by_size[static_cast<std::size_t>(t)]);
-    const std::vector<std::int32_t>& gr = group_rows[g];
-    const auto n = static_cast<Eigen::Index>(gr.size());
-    for (std::size_t i = 0; i < gr.size(); ++i) local[static_cast<std::size_t>(gr[i])] = static_cast<std::int32_t>(i);
-    // A over the group's rows, summed vertex by vertex in a fixed order.
-    GroupSystem sys(n, n <= kDenseRows);
-    for (std::int32_t r : group_runs[g]) {
-      const std::size_t b0 = run_begin[static_cast<std::size_t>(r)], b1 = run_begin[static_cast<std::size_t>(r) + 1];
-      for (std::size_t a = b0; a < b1; ++a) {
-        const double* na = rows[static_cast<std::size_t>(ent[a].q)].n;
-        const std::int32_t ia = local[static_cast<std::size_t>(ent[a].q)];
-        for (std::size_t b = b0; b < b1; ++b) {
-          const double* nb = rows[static_cast<std::size_t>(ent[b].q)].n;
-          sys.add(ia, local[static_cast<std::size_t>(ent[b].q)],
-                  ent[a].b * ent[b].b * (na[0] * nb[0] + na[1] * nb[1] + na[2] * nb[2]) * ent[a].im);
+    try {
+      const auto g = static_cast<std::size_t>(by_size[static_cast<std::size_t>(t)]);
+      const std::vector<std::int32_t>& gr = group_rows[g];
+      const auto n = static_cast<Eigen::Index>(gr.size());
+      for (std::size_t i = 0; i < gr.size(); ++i) local[static_cast<std::size_t>(gr[i])] = static_cast<std::int32_t>(i);
+      // A over the group's rows, summed vertex by vertex in a fixed order.
+      GroupSystem sys(n, n <= kDenseRows);
+      for (std::int32_t r : group_runs[g]) {
+        const std::size_t b0 = run_begin[static_cast<std::size_t>(r)], b1 = run_begin[static_cast<std::size_t>(r) + 1];
+        for (std::size_t a = b0; a < b1; ++a) {
+          const double* na = rows[static_cast<std::size_t>(ent[a].q)].n;
+          const std::int32_t ia = local[static_cast<std::size_t>(ent[a].q)];
+          for (std::size_t b = b0; b < b1; ++b) {
+            const double* nb = rows[static_cast<std::size_t>(ent[b].q)].n;
+            sys.add(ia, local[static_cast<std::size_t>(ent[b].q)],
+                    ent[a].b * ent[b].b * (na[0] * nb[0] + na[1] * nb[1] + na[2] * nb[2]) * ent[a].im);
+          }
         }
       }
-    }
-    Eigen::VectorXd rhs(n), reg(n);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const auto q = static_cast<std::size_t>(gr[static_cast<std::size_t>(i)]);
-      rhs[i] = rows[q].depth;
-      reg[i] = eps * diag[q];
-    }
-    ++passes;
-    if (!sys.factorize(reg)) {
-      failed = 1;
-      for (std::int32_t q : gr) x[static_cast<std::size_t>(q)] = nan;
-      continue;
-    }
-    Eigen::VectorXd sol = sys.solve(rhs);
-    std::vector<char> state(static_cast<std::size_t>(n), 0);  // 0 active, 1 dropped, 2 local
-    // Solved again without the rows taken out: the same ordering, a new factorisation.
-    bool ok = true;
-    auto resolve = [&] {
+      Eigen::VectorXd rhs(n), reg(n);
+      for (Eigen::Index i = 0; i < n; ++i) {
+        const auto q = static_cast<std::size_t>(gr[static_cast<std::size_t>(i)]);
+        rhs[i] = rows[q].depth;
+        reg[i] = eps * diag[q];
+      }
       ++passes;
-      ok = sys.refactorize(state);
-      if (!ok) return;
-      Eigen::VectorXd r = rhs;
-      for (Eigen::Index i = 0; i < n; ++i)
-        if (state[static_cast<std::size_t>(i)]) r[i] = 0;
-      sol = sys.solve(r);
-    };
-    // Rows that would pull are dropped (first: a contradiction between two depths along
-    // one direction shows as one large negative x); rows that the solve cannot close
-    // (the system is inconsistent there: the gap left exceeds kResidual of the depth)
-    // are left to the caller's closed form. The rest is solved again without them.
-    for (int pass = 0; pass < kMaxPasses; ++pass) {
-      const bool last = pass + 1 == kMaxPasses;
-      bool changed = false;
-      for (Eigen::Index i = 0; i < n; ++i)
-        if (state[static_cast<std::size_t>(i)] == 0 && sol[i] < 0) {
-          ++dropped;
-          changed = true;
-          state[static_cast<std::size_t>(i)] = 1;  // in the last pass clamped, not solved again
-          sol[i] = 0;
+      if (!sys.factorize(reg)) {
+        failed = 1;
+        for (std::int32_t q : gr) x[static_cast<std::size_t>(q)] = nan;
+        continue;
+      }
+      Eigen::VectorXd sol = sys.solve(rhs);
+      std::vector<char> state(static_cast<std::size_t>(n), 0);  // 0 active, 1 dropped, 2 local
+      // Solved again without the rows taken out: the same ordering, a new factorisation.
+      bool ok = true;
+      auto resolve = [&] {
+        ++passes;
+        ok = sys.refactorize(state);
+        if (!ok) return;
+        Eigen::VectorXd r = rhs;
+        for (Eigen::Index i = 0; i < n; ++i)
+          if (state[static_cast<std::size_t>(i)]) r[i] = 0;
+        sol = sys.solve(r);
+      };
+      // Rows that would pull are dropped (first: a contradiction between two depths along
+      // one direction shows as one large negative x); rows that the solve cannot close
+      // (the system is inconsistent there: the gap left exceeds kResidual of the depth)
+      // are left to the caller's closed form. The rest is solved again without them.
+      for (int pass = 0; pass < kMaxPasses; ++pass) {
+        const bool last = pass + 1 == kMaxPasses;
+        bool changed = false;
+        for (Eigen::Index i = 0; i < n; ++i)
+          if (state[static_cast<std::size_t>(i)] == 0 && sol[i] < 0) {
+            ++dropped;
+            changed = true;
+            state[static_cast<std::size_t>(i)] = 1;  // in the last pass clamped, not solved again
+            sol[i] = 0;
+          }
+        if (changed && !last) {
+          resolve();
+          if (!ok) break;
+          continue;  // the residuals of the others change without them
         }
-      if (changed && !last) {
+        const Eigen::VectorXd res = sys.times_a(sol) - rhs;  // the gap each row is left with by A itself
+        for (Eigen::Index i = 0; i < n; ++i) {
+          if (state[static_cast<std::size_t>(i)] != 0 || std::abs(res[i]) <= kResidual * rhs[i]) continue;
+          ++kept_local;
+          changed = true;
+          state[static_cast<std::size_t>(i)] = 2;
+        }
+        if (!changed || last) break;
         resolve();
         if (!ok) break;
-        continue;  // the residuals of the others change without them
       }
-      const Eigen::VectorXd res = sys.times_a(sol) - rhs;  // the gap each row is left with by A itself
+      if (!ok) {
+        failed = 1;
+        for (std::int32_t q : gr) x[static_cast<std::size_t>(q)] = nan;
+        continue;
+      }
       for (Eigen::Index i = 0; i < n; ++i) {
-        if (state[static_cast<std::size_t>(i)] != 0 || std::abs(res[i]) <= kResidual * rhs[i]) continue;
-        ++kept_local;
-        changed = true;
-        state[static_cast<std::size_t>(i)] = 2;
+        const auto q = static_cast<std::size_t>(gr[static_cast<std::size_t>(i)]);
+        const char st = state[static_cast<std::size_t>(i)];
+        x[q] = st == 0 ? sol[i] : (st == 1 ? 0.0 : nan);
       }
-      if (!changed || last) break;
-      resolve();
-      if (!ok) break;
-    }
-    if (!ok) {
-      failed = 1;
-      for (std::int32_t q : gr) x[static_cast<std::size_t>(q)] = nan;
-      continue;
-    }
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const auto q = static_cast<std::size_t>(gr[static_cast<std::size_t>(i)]);
-      const char st = state[static_cast<std::size_t>(i)];
-      x[q] = st == 0 ? sol[i] : (st == 1 ? 0.0 : nan);
+    } catch (...) {
+      failure.record(static_cast<std::size_t>(t));
     }
   }
+  failure.rethrow();
   stats.passes = passes;
   stats.dropped = dropped;
   stats.local = kept_local;

@@ -20,6 +20,7 @@
 
 #include "cell_bins.hpp"
 #include "softcontact/error.hpp"
+#include "softcontact/loop_failure.hpp"
 #include "softcontact/mesh.hpp"
 #include "verify_geometry.hpp"
 
@@ -35,11 +36,15 @@ constexpr int kMaxRing = 6;                // ring search radius in cells before
 constexpr double kDepthAccuracy = 1e-4;    // a crossing's depth is searched to this x h
 
 // One OpenMP loop for all passes (style.md: pragmas in one helper). Dynamic chunks:
-// vertices near contacts cost far more than the others.
+// vertices near contacts cost far more than the others. What a body throws (the crossing
+// pass allocates) is rethrown after the loop.
 template <class F>
 void parallel_for(std::size_t n, F&& f) {
+  LoopFailure failure;
 #pragma omp parallel for schedule(dynamic, 256)
-  for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) f(static_cast<std::size_t>(i));
+  for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i)
+    failure.run(static_cast<std::size_t>(i), f, static_cast<std::size_t>(i));
+  failure.rethrow();
 }
 
 std::string row_error(const char* what, std::size_t row, const std::string& detail) {
