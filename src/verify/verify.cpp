@@ -190,40 +190,63 @@ public:
     return d > tol_ ? d : -1;
   }
 
+  // max(0, depth in body b) of the point a + t (b - a).
+  double depth_on(const double* pa, const double* pb, double t, std::int32_t b, const Star& star) const {
+    const double q[3] = {pa[0] + t * (pb[0] - pa[0]), pa[1] + t * (pb[1] - pa[1]), pa[2] + t * (pb[2] - pa[2])};
+    return std::max(0.0, depth_in(q, b, star));
+  }
+
   // Largest depth in body b of the points a + t (b - a), t in [t0, t1], where the ends
   // t0 > 0 and t1 < 1 are crossings of b's surface (depth 0) and the ends 0 and 1 the
-  // edge's vertices. Evenly spaced points (up to kCrossingSamples intervals, about
-  // kCrossingSamples per median edge), then, where they are farther apart than
-  // 2 kDepthAccuracy h, a golden-section search between the neighbours of the deepest
-  // down to kDepthAccuracy h (exact where the depth is unimodal there, as inside a convex
-  // part; the depth is 1-Lipschitz, so the samples alone are short of it by at most half
-  // their spacing).
-  double deepest_on_segment(const double* pa, const double* pb, double t0, double t1, std::int32_t b,
-                            const Star& star = {}) const {
-    auto depth_at = [&](double t) {
-      const double q[3] = {pa[0] + t * (pb[0] - pa[0]), pa[1] + t * (pb[1] - pa[1]), pa[2] + t * (pb[2] - pa[2])};
-      return std::max(0.0, depth_in(q, b, star));
-    };
-    const double length = std::sqrt(verify::dist2(pa, pb)) * (t1 - t0);
-    const double h = m_.median_edge > 0 ? m_.median_edge : 1.0, accuracy = kDepthAccuracy * h;
-    const int k_max = static_cast<int>(std::clamp(std::ceil(kCrossingSamples * length / h), 2.0,
-                                                  static_cast<double>(kCrossingSamples)));
-    const double step = (t1 - t0) / k_max;
-    double best = 0;
-    int at = -1;
-    for (int k = t0 > 0 ? 1 : 0; k <= (t1 < 1 ? k_max - 1 : k_max); ++k) {
-      const double d = depth_at(t0 + k * step);
-      if (d > best) {
-        best = d;
-        at = k;
+  // edge's vertices, in two stages. sample_segment: evenly spaced points (up to
+  // kCrossingSamples intervals, about kCrossingSamples per median edge). refine_segment:
+  // where they are farther apart than 2 kDepthAccuracy h, a golden-section search between
+  // the neighbours of the deepest down to kDepthAccuracy h (exact where the depth is
+  // unimodal there, as inside a convex part). The depth is 1-Lipschitz, so the samples
+  // alone are short of it by at most half their spacing (sample_bound).
+  struct Samples {
+    double t0 = 0, t1 = 1, length = 0;  // the part, and its length [m]
+    int k_max = 0;                      // intervals
+    double best = 0;                    // the deepest sample (0: none inside) ...
+    int at = -1;                        // ... and its index (-1: none)
+  };
+  Samples sample_segment(const double* pa, const double* pb, double t0, double t1, std::int32_t b,
+                         const Star& star = {}) const {
+    Samples s;
+    s.t0 = t0;
+    s.t1 = t1;
+    s.length = std::sqrt(verify::dist2(pa, pb)) * (t1 - t0);
+    const double h = m_.median_edge > 0 ? m_.median_edge : 1.0;
+    s.k_max = static_cast<int>(std::clamp(std::ceil(kCrossingSamples * s.length / h), 2.0,
+                                          static_cast<double>(kCrossingSamples)));
+    const double step = (t1 - t0) / s.k_max;
+    for (int k = t0 > 0 ? 1 : 0; k <= (t1 < 1 ? s.k_max - 1 : s.k_max); ++k) {
+      const double d = depth_on(pa, pb, t0 + k * step, b, star);
+      if (d > s.best) {
+        s.best = d;
+        s.at = k;
       }
     }
-    if (at < 0 || length / k_max <= 2 * accuracy) return best;
+    return s;
+  }
+
+  // Above the part's deepest point (for a depth that is 1-Lipschitz along it, as the
+  // distance to another body's surface is; not for self checks, whose star leaves a
+  // jump): the deepest sample plus half their spacing, plus the tolerance.
+  double sample_bound(const Samples& s) const { return s.best + 0.5 * s.length / s.k_max + tol_; }
+
+  double refine_segment(const double* pa, const double* pb, const Samples& s, std::int32_t b,
+                        const Star& star = {}) const {
+    const double h = m_.median_edge > 0 ? m_.median_edge : 1.0, accuracy = kDepthAccuracy * h;
+    double best = s.best;
+    if (s.at < 0 || s.length / s.k_max <= 2 * accuracy) return best;
+    auto depth_at = [&](double t) { return depth_on(pa, pb, t, b, star); };
+    const double step = (s.t1 - s.t0) / s.k_max;
     constexpr double kGolden = 0.6180339887498949;
-    double lo = t0 + std::max(at - 1, 0) * step, hi = t0 + std::min(at + 1, k_max) * step;
+    double lo = s.t0 + std::max(s.at - 1, 0) * step, hi = s.t0 + std::min(s.at + 1, s.k_max) * step;
     double x1 = hi - kGolden * (hi - lo), x2 = lo + kGolden * (hi - lo);
     double f1 = depth_at(x1), f2 = depth_at(x2);
-    const double scale = length / (t1 - t0);  // metres per unit of t
+    const double scale = s.length / (s.t1 - s.t0);  // metres per unit of t
     for (int it = 0; it < 40 && (hi - lo) * scale > accuracy; ++it) {
       if (f1 >= f2) {
         hi = x2;
@@ -540,8 +563,15 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
       std::int32_t body, triangle;
       bool entering;           // a lies on the triangle's outer side
     };
+    // A crossing's part of the edge inside the crossed body (see the first pass below).
+    struct Part {
+      Hit hit;
+      FrameCheck::Samples s;
+      std::int32_t same_as = -1;  // an exiting crossing after an entering one: that crossing's part
+    };
     const std::size_t ne = m.edges.size() / 2;
     std::vector<EdgeResult> er(ne);
+    std::vector<std::vector<Part>> parts(ne);  // filled for crossing edges only
     const CellBins& bins = check.triangle_bins();
     // Vertex v inside body b, from the vertex pass (surface vertices are always checked).
     auto inside = [&](gid_t v, std::int32_t b) {
@@ -589,10 +619,13 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
       std::sort(hits.begin(), hits.end(), [](const Hit& x, const Hit& y) {
         return x.body != y.body ? x.body < y.body : x.t != y.t ? x.t < y.t : x.triangle < y.triangle;
       });
-      EdgeResult& r = er[e];
-      std::vector<double> depth(hits.size(), -1);
+      // Each crossing's part of the edge inside its body, sampled.
+      std::vector<Part>& ps = parts[e];
+      ps.resize(hits.size());
       for (std::size_t j = 0; j < hits.size(); ++j) {
         const Hit& h = hits[j];
+        Part& p = ps[j];
+        p.hit = h;
         // The part of the edge inside the body that this crossing bounds: towards the
         // inner side up to the edge's next crossing with the same body, or its end.
         double t0 = 0, t1 = 1;
@@ -612,14 +645,43 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
             }
         }
         // An exiting crossing after an entering one bounds the same part: computed once.
-        double deepest = -1;
         for (std::size_t k = j; k-- > 0 && hits[k].body == h.body && !h.entering;)
           if (hits[k].t < h.t) {
-            if (hits[k].entering) deepest = depth[k];
+            if (hits[k].entering) p.same_as = static_cast<std::int32_t>(k);
             break;
           }
+        if (p.same_as < 0) p.s = check.sample_segment(pa, pb, t0, t1, h.body, h.body == own ? star : Star{});
+      }
+    });
+    // The deepest sample of any crossing with another body: the frame's deepest crossing
+    // is at least that deep, so a part whose bound (sample_bound) lies below it cannot
+    // hold it, and its samples stand for its depth without the golden-section search (an
+    // edge's depth is used for the frame's deepest crossing only). Whether a crossing
+    // counts (deeper than the tolerance) is decided by its samples already when they are
+    // deeper. The threshold depends on the samples alone: the same on any thread count.
+    // Self crossings are always searched (the star's jump breaks the bound).
+    double sampled = 0;
+    for (std::size_t e = 0; e < ne; ++e)
+      for (const Part& p : parts[e])
+        if (p.same_as < 0 && p.hit.body != m.vertex_object[static_cast<std::size_t>(m.edges[2 * e])])
+          sampled = std::max(sampled, p.s.best);
+    parallel_for(ne, [&](std::size_t e) {
+      std::vector<Part>& ps = parts[e];
+      if (ps.empty()) return;
+      const gid_t a = m.edges[2 * e], b = m.edges[2 * e + 1];
+      const double *pa = check.X(a), *pb = check.X(b);
+      const std::int32_t own = m.vertex_object[static_cast<std::size_t>(a)];
+      const Star star{a, b};
+      EdgeResult& r = er[e];
+      std::vector<double> depth(ps.size(), -1);
+      for (std::size_t j = 0; j < ps.size(); ++j) {
+        const Part& p = ps[j];
+        const Hit& h = p.hit;
         const bool self = h.body == own;
-        if (deepest < 0) deepest = check.deepest_on_segment(pa, pb, t0, t1, h.body, self ? star : Star{});
+        double deepest = 0;
+        if (p.same_as >= 0) deepest = depth[static_cast<std::size_t>(p.same_as)];
+        else if (!self && p.s.best > check.tolerance() && check.sample_bound(p.s) < sampled) deepest = p.s.best;
+        else deepest = check.refine_segment(pa, pb, p.s, h.body, self ? star : Star{});
         depth[j] = deepest;
         if (deepest <= check.tolerance()) {
           r.grazing += self ? 0 : 1;  // through a triangle's rim, or touching: not inside anywhere
