@@ -13,10 +13,13 @@
 // afterwards in item order, so nothing depends on the thread count.
 #include "softcontact/verify.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <span>
 
 #include "cell_bins.hpp"
 #include "softcontact/error.hpp"
@@ -565,13 +568,16 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
     };
     // A crossing's part of the edge inside the crossed body (see the first pass below).
     struct Part {
+      std::size_t edge = 0;
       Hit hit;
       FrameCheck::Samples s;
-      std::int32_t same_as = -1;  // an exiting crossing after an entering one: that crossing's part
+      std::int32_t same_as = -1;  // an exiting crossing after an entering one: that crossing's part (index in the edge's)
     };
     const std::size_t ne = m.edges.size() / 2;
     std::vector<EdgeResult> er(ne);
-    std::vector<std::vector<Part>> parts(ne);  // filled for crossing edges only
+    // The crossing edges' parts, each thread's in its own list (memory for the crossings
+    // only, not for every edge).
+    std::vector<std::vector<Part>> found(static_cast<std::size_t>(omp_get_max_threads()));
     const CellBins& bins = check.triangle_bins();
     // Vertex v inside body b, from the vertex pass (surface vertices are always checked).
     auto inside = [&](gid_t v, std::int32_t b) {
@@ -620,11 +626,13 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
         return x.body != y.body ? x.body < y.body : x.t != y.t ? x.t < y.t : x.triangle < y.triangle;
       });
       // Each crossing's part of the edge inside its body, sampled.
-      std::vector<Part>& ps = parts[e];
-      ps.resize(hits.size());
+      std::vector<Part>& out = found[static_cast<std::size_t>(omp_get_thread_num())];
+      const std::size_t first = out.size();
+      out.resize(first + hits.size());
       for (std::size_t j = 0; j < hits.size(); ++j) {
         const Hit& h = hits[j];
-        Part& p = ps[j];
+        Part& p = out[first + j];
+        p.edge = e;
         p.hit = h;
         // The part of the edge inside the body that this crossing bounds: towards the
         // inner side up to the edge's next crossing with the same body, or its end.
@@ -660,14 +668,25 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
     // counts (deeper than the tolerance) is decided by its samples already when they are
     // deeper. The threshold depends on the samples alone: the same on any thread count.
     // Self crossings are always searched (the star's jump breaks the bound).
+    // In edge order (each edge's parts lie together, in order, in one thread's list).
+    std::vector<Part> parts;
+    for (std::vector<Part>& l : found) {
+      parts.insert(parts.end(), l.begin(), l.end());
+      std::vector<Part>().swap(l);
+    }
+    std::stable_sort(parts.begin(), parts.end(), [](const Part& x, const Part& y) { return x.edge < y.edge; });
+    std::vector<std::size_t> edge_begin;  // where each crossing edge's parts begin, then the end
     double sampled = 0;
-    for (std::size_t e = 0; e < ne; ++e)
-      for (const Part& p : parts[e])
-        if (p.same_as < 0 && p.hit.body != m.vertex_object[static_cast<std::size_t>(m.edges[2 * e])])
-          sampled = std::max(sampled, p.s.best);
-    parallel_for(ne, [&](std::size_t e) {
-      std::vector<Part>& ps = parts[e];
-      if (ps.empty()) return;
+    for (std::size_t k = 0; k < parts.size(); ++k) {
+      const Part& p = parts[k];
+      if (k == 0 || p.edge != parts[k - 1].edge) edge_begin.push_back(k);
+      if (p.same_as < 0 && p.hit.body != m.vertex_object[static_cast<std::size_t>(m.edges[2 * p.edge])])
+        sampled = std::max(sampled, p.s.best);
+    }
+    edge_begin.push_back(parts.size());
+    parallel_for(edge_begin.size() - 1, [&](std::size_t g) {
+      const std::span<const Part> ps(parts.data() + edge_begin[g], edge_begin[g + 1] - edge_begin[g]);
+      const std::size_t e = ps[0].edge;
       const gid_t a = m.edges[2 * e], b = m.edges[2 * e + 1];
       const double *pa = check.X(a), *pb = check.X(b);
       const std::int32_t own = m.vertex_object[static_cast<std::size_t>(a)];
