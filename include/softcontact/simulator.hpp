@@ -40,6 +40,7 @@ class ImplicitEuler;
 class SerialStepper;
 struct StepDiagnostics;
 class GhostSet;
+struct LocalCheck;
 
 class Simulator {
 public:
@@ -76,18 +77,22 @@ public:
   void measure(StepDiagnostics& d, const VerifyFrame* check = nullptr);
 
   /// The deepest surface vertex inside another body, over the median edge: verify()'s
-  /// surface_depth() to the bit, without gathering. Each rank checks the surface vertices
-  /// of its own and its ghost objects against those objects (a body holding one of its
-  /// vertices overlaps its box, so it is owned or ghosted: each owned vertex's depth is
-  /// exact, a ghost vertex's at most its true one), then the maximum over the ranks. Its
-  /// VerifyMesh (owned and ghost objects, local order) is rebuilt after a ghost-set change
-  /// or a migration. Collective.
+  /// surface_depth() to the bit, at the cost of that part of the check alone (one
+  /// MPI_Allreduce of the maximum). Collective.
   double residual_surface_depth();
 
   /// The check of `softcontact verify` (verify.hpp) on the current positions and
-  /// velocities: the owned rows gathered to rank 0 and checked there, the result
-  /// broadcast to every rank. `full` adds interior vertices and surface crossings to the
-  /// surface vertices, inverted tets and speeds. Collective.
+  /// velocities, equal to the bit to that check on the whole scene on one process,
+  /// without gathering: each rank checks the vertices, surface edges and tets of its own
+  /// objects against its own and its ghost objects (a body that holds one of its
+  /// vertices, or that one of its edges crosses, overlaps its box, so it is owned or a
+  /// ghost), in a VerifyMesh of those objects in global order (so that ties go the same
+  /// way), rebuilt after a ghost-set change or a migration. The crossing pass's threshold
+  /// and the percentiles are taken over all ranks while the check runs
+  /// (VerifyReduction), the parts merged by one MPI_Allreduce (merge_verify_part). Every
+  /// rank gets the result. `full` adds interior vertices and surface crossings (and self
+  /// checks where the scene has self-collisions) to the surface vertices, inverted tets
+  /// and speeds. Collective.
   VerifyFrame verify(bool full);
 
   /// Wall time per phase accumulated since the last call, and the steps it covers.
@@ -204,11 +209,12 @@ private:
   double median_edge_ = 0;
   std::int64_t initial_overlaps_ = 0;
   double initial_overlap_depth_ = 0;
-  std::unique_ptr<VerifyMesh> verify_mesh_;  // rank 0, built by the first verify()
-  std::unique_ptr<VerifyMesh> local_verify_;  // this rank's objects and ghosts (residual_surface_depth)
+  std::unique_ptr<LocalCheck> local_verify_;  // this rank's objects and ghosts in global order (simulator_verify.cpp)
+  LocalCheck& local_check();                  // local_verify_, built when missing (collective)
   double verify_median_ = 0;                  // the whole scene's median edge as verify.hpp takes it
   bool verify_median_known_ = false;
   double free_fall_speed_ = 0;
+  bool free_fall_known_ = false;
   std::vector<int> split_candidates_;          // objects bigger than a share (split_forces.hpp)
   bool split_dirty_ = true;                    // the World was replaced since the split plan was made
   int split_count_ = 0, split_ranks_ = 0;      // split objects, the ranks sharing each

@@ -8,8 +8,10 @@
 //
 // The core works on the whole scene as plain global arrays (global ids as in frames.h5:
 // objects in scene order, each object's vertices, tets and triangles consecutive), with
-// no MPI: `softcontact verify` reads them from a run's output, and a run gathers its
-// positions to rank 0 for it (Simulator::verify, `softcontact run --verify-every`).
+// no MPI: `softcontact verify` reads them from a run's output. A run checks each rank's
+// own objects against its own and ghost objects (VerifyOptions::counted, VerifyReduction)
+// and merges the parts (merge_verify_part; Simulator::verify, `softcontact run
+// --verify-every`): the same result to the bit.
 //
 // Definitions (all distances in metres; h = the median tet edge length at rest):
 //  - A vertex of body A is *inside* body B (B != A, not both kinematic) when it lies in a
@@ -98,6 +100,11 @@ std::vector<double> initial_positions(const Scene& scene);
 /// is the height of the highest vertex of `x0` (n,3) above the lowest one, measured along
 /// g (every vertex, kinematic ones included), and v0 the largest initial speed [m/s].
 double free_fall_speed(const double* x0, std::size_t n, const Vec3& gravity, double v0);
+/// The heights along g of the lowest and highest of the points `x0` (n,3), non-finite
+/// ones left out, folded into lo and hi (start from +inf and -inf).
+void height_range(const double* x0, std::size_t n, const Vec3& gravity, double& lo, double& hi);
+/// v_ff from the height range of every vertex (height_range; lo > hi: none).
+double free_fall_speed(double lo, double hi, const Vec3& gravity, double v0);
 /// The same for a scene: x0 its initial positions, v0 the largest of the objects' initial
 /// velocities and prescribed motions.
 double free_fall_speed(const Scene& scene);
@@ -113,6 +120,20 @@ enum RecordStatus : std::int8_t {
 };
 constexpr int kRecordStatuses = 4;
 
+/// The collective steps of a check split over processes (Simulator::verify): each
+/// process checks the vertices, surface edges and tets of its own bodies
+/// (VerifyOptions::counted) against its own and its neighbours' bodies, and these combine
+/// what must be known over all of them before the check goes on. Every process calls
+/// them in the same order (one verify_frame each, with the same options).
+struct VerifyReduction {
+  virtual ~VerifyReduction() = default;
+  /// The largest of every process's `local`.
+  virtual double max(double local) const = 0;
+  /// The q-quantile (nearest rank: the value at index ceil(q N) - 1 of the N values of
+  /// all processes, ascending), 0 when N = 0. May reorder `local`.
+  virtual double quantile(std::vector<double>& local, double q) const = 0;
+};
+
 /// What to check besides the surface vertices; `free_fall_speed` <= 0 leaves the speed
 /// ratio at 0.
 struct VerifyOptions {
@@ -124,6 +145,14 @@ struct VerifyOptions {
   /// record_limit median edges are then counted by it (VerifyFrame::deep_by_record).
   const std::int8_t* record = nullptr;
   double record_limit = 0.005;
+  /// Per body (num_objects), or null for all: only the vertices, surface edges and tets
+  /// of bodies marked 1 are checked and counted; the others are there to be inside of
+  /// and to be crossed. For a part of a check split over processes (merge_verify_part).
+  const char* counted = nullptr;
+  /// With `counted`: how the processes combine the crossing pass's threshold and the
+  /// percentiles, so that each part's percentiles are the whole check's. Null: this
+  /// process alone.
+  const VerifyReduction* reduction = nullptr;
 };
 
 /// Vertices inside other bodies (surface or interior ones).
@@ -181,6 +210,15 @@ static_assert(std::is_trivially_copyable_v<VerifyFrame>, "VerifyFrame is broadca
 /// Checks positions `x` (n,3) and velocities `v` (n,3, or null: no speeds) of `mesh`.
 /// OpenMP over vertices, edges and tets; the result does not depend on the thread count.
 VerifyFrame verify_frame(const VerifyMesh& mesh, const double* x, const double* v, const VerifyOptions& opt = {});
+
+/// Combines `part`, the check of other bodies' vertices, edges and tets (disjoint from
+/// those of `total`; VerifyOptions::counted), into `total`: counts summed, each maximum
+/// the larger with the lower global id on a tie (the deepest crossing: the lower edge,
+/// as (first, second) vertex), the lowest inverted tet. Ids must be global. The
+/// percentiles are `total`'s (a split check takes them over every process already);
+/// speed_ratio is left to the caller. The result does not depend on the order in which
+/// parts are merged.
+void merge_verify_part(VerifyFrame& total, const VerifyFrame& part);
 
 /// A maximum over checks, with the step and time where it occurred.
 struct VerifyPeak {

@@ -85,7 +85,7 @@ const char* kRunHelp =
     "                     directory), on any number of ranks, bitwise as if it had not stopped;\n"
     "                     frames continue in the same directory unless --output names another\n"
     "  --verify-every N   after every N-th step, the check of 'softcontact verify' on all positions\n"
-    "                     (gathered to rank 0); the maxima are printed at the end and written to\n"
+    "                     (each rank its own objects); the maxima are printed at the end and written to\n"
     "                     OUTPUT_DIR/verify_steps.json, with the vertices left inside counted by\n"
     "                     what the contact response did about them (docs/validation.md)\n"
     "  --quiet            no progress line (for batch logs); the final summary is kept\n"

@@ -15,6 +15,7 @@
 #include <iostream>
 #include <limits>
 
+#include "local_check.hpp"
 #include "softcontact/diagnostics.hpp"
 #include "softcontact/error.hpp"
 #include "softcontact/forces.hpp"
@@ -415,118 +416,6 @@ void Simulator::measure(StepDiagnostics& d, const VerifyFrame* check) {
   d.contacts = totals[0];
   d.edge_contacts = totals[1];
   d.residual_penetration = residual;
-}
-
-double Simulator::residual_surface_depth() {
-  if (!local_verify_) {
-    // The owned and ghost objects in local order, their rest positions the scene's.
-    auto m = std::make_unique<VerifyMesh>();
-    const std::size_t n = world_.n_local();
-    std::vector<double> rest(3 * n);
-    for (std::size_t i = 0; i < n; ++i) {
-      const auto k = static_cast<std::size_t>(world_.vertex_object[i]);
-      const TetMesh& mesh = scene_.mesh(k);
-      const auto j = static_cast<std::size_t>(world_.vertex_gid[i] - world_.layout[k].vertex_begin);
-      for (std::size_t d = 0; d < 3; ++d) rest[3 * i + d] = mesh.points[3 * j + d];
-    }
-    m->vertex_object.assign(world_.vertex_object.begin(), world_.vertex_object.end());
-    m->tets.assign(world_.tets.begin(), world_.tets.end());
-    m->tet_object.assign(world_.tet_object.begin(), world_.tet_object.end());
-    m->triangles.assign(world_.triangles.begin(), world_.triangles.end());
-    m->object_fixed.resize(scene_.objects.size());
-    for (std::size_t k = 0; k < scene_.objects.size(); ++k) m->object_fixed[k] = scene_.objects[k].kinematic ? 1 : 0;
-    prepare_verify_mesh(*m, rest.data(), scene_.path);
-    if (!verify_median_known_) {
-      // The whole scene's median edge as prepare_verify_mesh takes it (the six rest edges
-      // of each tet, sqrt of the squared distance), from each rank's own tets.
-      std::vector<double> len;
-      len.reserve(6 * world_.m_owned);
-      for (std::size_t t = 0; t < world_.m_owned; ++t)
-        for (const auto& e : kTetEdges) {
-          const double* a = &rest[3 * static_cast<std::size_t>(world_.tets[4 * t + e[0]])];
-          const double* b = &rest[3 * static_cast<std::size_t>(world_.tets[4 * t + e[1]])];
-          const double x = a[0] - b[0], y = a[1] - b[1], z = a[2] - b[2];
-          len.push_back(std::sqrt(x * x + y * y + z * z));
-        }
-      std::int64_t total = 6 * static_cast<std::int64_t>(world_.global_tets);
-      verify_median_ = total > 0 ? kth_smallest(comm_, len, total / 2) : 0;
-      verify_median_known_ = true;  // every rank passes here at its first call, together
-    }
-    m->median_edge = verify_median_;
-    local_verify_ = std::move(m);
-  }
-  VerifyOptions opt;
-  opt.interior = opt.crossings = opt.self = false;
-  double deepest = verify_frame(*local_verify_, world_.x.data(), nullptr, opt).surface.max_depth;
-  MPI_Allreduce(MPI_IN_PLACE, &deepest, 1, MPI_DOUBLE, MPI_MAX, comm_);
-  return deepest / verify_median_;
-}
-
-VerifyFrame Simulator::verify(bool full) {
-  // Owned rows (global id, x, v) to rank 0, which puts them in global order.
-  const int mine = static_cast<int>(world_.n_owned);
-  std::vector<int> counts(static_cast<std::size_t>(nranks_)), displs(static_cast<std::size_t>(nranks_));
-  MPI_Gather(&mine, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm_);
-  std::vector<double> xv(6 * world_.n_owned);
-  for (std::size_t i = 0; i < world_.n_owned; ++i)
-    for (std::size_t d = 0; d < 3; ++d) {
-      xv[6 * i + d] = world_.x[3 * i + d];
-      xv[6 * i + 3 + d] = world_.v[3 * i + d];
-    }
-  int total = 0;
-  for (int r = 0; r < nranks_; ++r) {
-    displs[static_cast<std::size_t>(r)] = total;
-    total += counts[static_cast<std::size_t>(r)];
-  }
-  std::vector<gid_t> gids(rank_ == 0 ? static_cast<std::size_t>(total) : 0);
-  std::vector<double> all(rank_ == 0 ? 6 * static_cast<std::size_t>(total) : 0);
-  MPI_Gatherv(world_.vertex_gid.data(), mine, MPI_INT64_T, gids.data(), counts.data(), displs.data(), MPI_INT64_T, 0,
-              comm_);
-  for (int r = 0; r < nranks_; ++r) {
-    counts[static_cast<std::size_t>(r)] *= 6;
-    displs[static_cast<std::size_t>(r)] *= 6;
-  }
-  MPI_Gatherv(xv.data(), 6 * mine, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, 0, comm_);
-  // In-run checks: what the response did about each vertex in this step (its deepest
-  // vertex record), to count the vertices left inside by cause.
-  std::vector<std::int8_t> status, all_status(full && rank_ == 0 ? static_cast<std::size_t>(total) : 0);
-  if (full) {
-    core_->response().record_status(core_->collisions(), world_.n_owned, status);
-    for (int r = 0; r < nranks_; ++r) {
-      counts[static_cast<std::size_t>(r)] /= 6;
-      displs[static_cast<std::size_t>(r)] /= 6;
-    }
-    MPI_Gatherv(status.data(), mine, MPI_INT8_T, all_status.data(), counts.data(), displs.data(), MPI_INT8_T, 0,
-                comm_);
-  }
-  VerifyFrame f;
-  if (rank_ == 0) {
-    if (!verify_mesh_) {
-      verify_mesh_ = std::make_unique<VerifyMesh>(verify_mesh_of(scene_));
-      free_fall_speed_ = free_fall_speed(scene_);
-    }
-    const std::size_t n = verify_mesh_->num_vertices();
-    std::vector<double> x(3 * n), v(3 * n);
-    for (std::size_t k = 0; k < gids.size(); ++k)
-      for (std::size_t d = 0; d < 3; ++d) {
-        x[3 * static_cast<std::size_t>(gids[k]) + d] = all[6 * k + d];
-        v[3 * static_cast<std::size_t>(gids[k]) + d] = all[6 * k + 3 + d];
-      }
-    std::vector<std::int8_t> record(full ? n : 0, kNoRecord);
-    for (std::size_t k = 0; full && k < gids.size(); ++k) record[static_cast<std::size_t>(gids[k])] = all_status[k];
-    VerifyOptions opt;
-    opt.interior = opt.crossings = full;
-    // Self checks cost a pass over every surface edge against its own body: in the run only
-    // where the run claims self-contact (softcontact verify on the frames always has them).
-    opt.self = full && scene_.sim.self_collisions;
-    opt.free_fall_speed = free_fall_speed_;
-    if (full) opt.record = record.data();
-    f = verify_frame(*verify_mesh_, x.data(), v.data(), opt);
-  }
-  MPI_Bcast(&f, static_cast<int>(sizeof f), MPI_BYTE, 0, comm_);  // trivially copyable (verify.hpp)
-  f.step = step_;
-  f.time = time();
-  return f;
 }
 
 PhaseTimes Simulator::take_times(std::int64_t& steps) {

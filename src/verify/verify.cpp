@@ -302,11 +302,16 @@ private:
   std::vector<double> tri_box_;
 };
 
-// Count, maximum (lowest id on a tie) and 99th percentile (nearest rank) of the depths
-// >= 0 of the vertices selected by `pick`.
+// Index of the q-quantile (nearest rank) of n values in ascending order.
+std::size_t nearest_rank(std::size_t n, double q) {
+  return static_cast<std::size_t>(std::ceil(q * static_cast<double>(n))) - 1;
+}
+
+// Count, maximum (lowest id on a tie) and 99th percentile (nearest rank; over every
+// process with a reduction) of the depths >= 0 of the vertices selected by `pick`.
 template <class Pick>
 InsideStats inside_stats(const VerifyMesh& m, const std::vector<double>& depth, const std::vector<std::int32_t>& in_obj,
-                         Pick pick) {
+                         const VerifyReduction* reduction, Pick pick) {
   InsideStats s;
   std::vector<double> all;
   for (std::size_t i = 0; i < depth.size(); ++i) {
@@ -320,8 +325,10 @@ InsideStats inside_stats(const VerifyMesh& m, const std::vector<double>& depth, 
       s.in_object = in_obj[i];
     }
   }
-  if (!all.empty()) {
-    const auto k = static_cast<std::size_t>(std::ceil(0.99 * static_cast<double>(all.size()))) - 1;
+  if (reduction) {
+    s.p99_depth = reduction->quantile(all, 0.99);
+  } else if (!all.empty()) {
+    const std::size_t k = nearest_rank(all.size(), 0.99);
     std::nth_element(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(k), all.end());
     s.p99_depth = all[k];
   }
@@ -462,17 +469,71 @@ VerifyMesh verify_mesh_of(const Scene& scene) {
   return m;
 }
 
-double free_fall_speed(const double* x0, std::size_t n, const Vec3& g, double v0) {
+void height_range(const double* x0, std::size_t n, const Vec3& g, double& lo, double& hi) {
   const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   for (std::size_t i = 0; gn > 0 && i < n; ++i) {
     const double h = (x0[3 * i] * g[0] + x0[3 * i + 1] * g[1] + x0[3 * i + 2] * g[2]) / gn;
     if (!std::isfinite(h)) continue;
     lo = std::min(lo, h);
     hi = std::max(hi, h);
   }
-  const double height = hi > lo ? hi - lo : 0;
+}
+
+double free_fall_speed(double lo, double hi, const Vec3& g, double v0) {
+  const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+  const double height = gn > 0 && hi > lo ? hi - lo : 0;
   return std::sqrt(v0 * v0 + 2 * gn * height);
+}
+
+double free_fall_speed(const double* x0, std::size_t n, const Vec3& g, double v0) {
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  height_range(x0, n, g, lo, hi);
+  return free_fall_speed(lo, hi, g, v0);
+}
+
+namespace {
+
+void merge_inside(InsideStats& s, const InsideStats& p) {
+  s.count += p.count;
+  if (p.vertex >= 0 && (s.vertex < 0 || p.max_depth > s.max_depth || (p.max_depth == s.max_depth && p.vertex < s.vertex))) {
+    s.max_depth = p.max_depth;
+    s.vertex = p.vertex;
+    s.object = p.object;
+    s.in_object = p.in_object;
+  }
+}
+
+void merge_crossings(CrossingStats& s, const CrossingStats& p) {
+  s.count += p.count;
+  s.without_inside_vertex += p.without_inside_vertex;
+  s.grazing += p.grazing;
+  const bool lower_edge = p.edge[0] != s.edge[0] ? p.edge[0] < s.edge[0] : p.edge[1] < s.edge[1];
+  if (p.triangle >= 0 && (s.triangle < 0 || p.max_depth > s.max_depth || (p.max_depth == s.max_depth && lower_edge))) {
+    s.max_depth = p.max_depth;
+    s.edge[0] = p.edge[0];
+    s.edge[1] = p.edge[1];
+    s.triangle = p.triangle;
+    s.object = p.object;
+    s.in_object = p.in_object;
+  }
+}
+
+}  // namespace
+
+void merge_verify_part(VerifyFrame& f, const VerifyFrame& p) {
+  merge_inside(f.surface, p.surface);
+  merge_inside(f.interior, p.interior);
+  merge_inside(f.self, p.self);
+  merge_crossings(f.self_crossings, p.self_crossings);
+  merge_crossings(f.crossings, p.crossings);
+  if (p.inverted > 0 && (f.inverted == 0 || p.first_inverted < f.first_inverted)) f.first_inverted = p.first_inverted;
+  f.inverted += p.inverted;
+  f.nonfinite += p.nonfinite;
+  if (p.fastest >= 0 && (f.fastest < 0 || p.max_speed > f.max_speed || (p.max_speed == f.max_speed && p.fastest < f.fastest))) {
+    f.max_speed = p.max_speed;
+    f.fastest = p.fastest;
+  }
+  for (int k = 0; k < kRecordStatuses; ++k) f.deep_by_record[k] += p.deep_by_record[k];
 }
 
 double free_fall_speed(const Scene& scene) {
@@ -488,6 +549,9 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
   f.median_edge = m.median_edge;
   const std::size_t n = m.num_vertices();
   const FrameCheck check(m, x);
+  // The bodies whose vertices, edges and tets this check counts (VerifyOptions::counted).
+  auto counted = [&](std::int32_t body) { return !opt.counted || opt.counted[static_cast<std::size_t>(body)] != 0; };
+  const VerifyReduction* reduction = opt.counted ? opt.reduction : nullptr;
 
   // Non-finite vertices, and the speeds.
   std::vector<char> bad(n, 0);
@@ -503,6 +567,7 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
     bad[i] = ok ? 0 : 1;
   });
   for (std::size_t i = 0; i < n; ++i) {
+    if (!counted(m.vertex_object[i])) continue;
     f.nonfinite += bad[i];
     if (!bad[i] && speed[i] > f.max_speed) {
       f.max_speed = speed[i];
@@ -516,7 +581,7 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
   std::vector<std::int32_t> in_obj(n, -1);
   std::vector<std::int8_t> in_count(n, 0);  // bodies the vertex is inside (2: two or more)
   parallel_for(n, [&](std::size_t i) {
-    if (bad[i] || (!opt.interior && !m.surface_vertex[i])) return;
+    if (bad[i] || (!opt.interior && !m.surface_vertex[i]) || !counted(m.vertex_object[i])) return;
     const double* p = x + 3 * i;
     constexpr int kCap = 16;
     std::int32_t found[kCap];
@@ -531,7 +596,7 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
       }
     }
   });
-  f.surface = inside_stats(m, depth, in_obj, [&](std::size_t i) { return m.surface_vertex[i] != 0; });
+  f.surface = inside_stats(m, depth, in_obj, reduction, [&](std::size_t i) { return m.surface_vertex[i] != 0; });
   if (opt.record) {
     const double limit = opt.record_limit * m.median_edge;
     for (std::size_t i = 0; i < n; ++i)
@@ -544,12 +609,15 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
     std::vector<double> self(n, -1);
     std::vector<std::int32_t> self_obj(m.vertex_object);
     parallel_for(n, [&](std::size_t i) {
-      if (bad[i] || !m.surface_vertex[i] || m.object_fixed[static_cast<std::size_t>(m.vertex_object[i])]) return;
+      if (bad[i] || !m.surface_vertex[i] || m.object_fixed[static_cast<std::size_t>(m.vertex_object[i])] ||
+          !counted(m.vertex_object[i]))
+        return;
       self[i] = check.self_depth(static_cast<gid_t>(i), m.vertex_object[i]);
     });
-    f.self = inside_stats(m, self, self_obj, [](std::size_t) { return true; });
+    f.self = inside_stats(m, self, self_obj, reduction, [](std::size_t) { return true; });
   }
-  if (opt.interior) f.interior = inside_stats(m, depth, in_obj, [&](std::size_t i) { return m.surface_vertex[i] == 0; });
+  if (opt.interior)
+    f.interior = inside_stats(m, depth, in_obj, reduction, [&](std::size_t i) { return m.surface_vertex[i] == 0; });
 
   // Surface edges through other bodies' surface triangles.
   if (opt.crossings) {
@@ -579,16 +647,18 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
     // only, not for every edge).
     std::vector<std::vector<Part>> found(static_cast<std::size_t>(omp_get_max_threads()));
     const CellBins& bins = check.triangle_bins();
-    // Vertex v inside body b, from the vertex pass (surface vertices are always checked).
+    // Vertex v inside body b, from the vertex pass (surface vertices of counted bodies
+    // are always checked there; the others here, as the pass would have).
     auto inside = [&](gid_t v, std::int32_t b) {
       const auto u = static_cast<std::size_t>(v);
+      if (!counted(m.vertex_object[u])) return !bad[u] && check.depth_in(check.X(v), b) > 0;
       return in_count[u] > 0 && (in_obj[u] == b || (in_count[u] > 1 && check.depth_in(check.X(v), b) > 0));
     };
     parallel_for(ne, [&](std::size_t e) {
       const gid_t a = m.edges[2 * e], b = m.edges[2 * e + 1];
-      if (bad[static_cast<std::size_t>(a)] || bad[static_cast<std::size_t>(b)]) return;
-      const double *pa = check.X(a), *pb = check.X(b);
       const std::int32_t own = m.vertex_object[static_cast<std::size_t>(a)];
+      if (bad[static_cast<std::size_t>(a)] || bad[static_cast<std::size_t>(b)] || !counted(own)) return;
+      const double *pa = check.X(a), *pb = check.X(b);
       double lo[3], hi[3];
       for (int d = 0; d < 3; ++d) {
         lo[d] = std::min(pa[d], pb[d]);
@@ -684,6 +754,7 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
         sampled = std::max(sampled, p.s.best);
     }
     edge_begin.push_back(parts.size());
+    if (reduction) sampled = reduction->max(sampled);  // the whole check's (the same threshold on any process count)
     parallel_for(edge_begin.size() - 1, [&](std::size_t g) {
       const std::span<const Part> ps(parts.data() + edge_begin[g], edge_begin[g + 1] - edge_begin[g]);
       const std::size_t e = ps[0].edge;
@@ -757,6 +828,7 @@ VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, 
   const std::size_t nt = m.num_tets();
   std::vector<char> inverted(nt, 0);
   parallel_for(nt, [&](std::size_t t) {
+    if (!counted(m.tet_object[t])) return;
     const gid_t* c = &m.tets[4 * t];
     const double vol = verify::orient(check.X(c[0]), check.X(c[1]), check.X(c[2]), check.X(c[3]));
     inverted[t] = std::isfinite(vol) && vol * m.rest_sign[t] <= 0 ? 1 : 0;

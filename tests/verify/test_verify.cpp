@@ -465,6 +465,65 @@ TEST(Verify, SameResultWithOneAndTwoThreads) {
 }
 
 // Maxima keep the worst value and where it occurred.
+// Parts of a split check (Simulator::verify) merge into the whole check whatever their
+// order: counts add up, each maximum is the larger, the lower global id on a tie (for a
+// crossing the lower edge as (first, second) vertex), a part with nothing found leaves
+// the other's, the first inverted tet is the lowest.
+TEST(Verify, MergedPartsTakeTheLowerIdOnATieInAnyOrder) {
+  VerifyFrame a, b, none;
+  a.surface = {3, 0.25, 0.1, 7, 1, 2};
+  b.surface = {2, 0.25, 0.2, 3, 0, 1};       // as deep, lower vertex: b's
+  a.interior = {1, 0.5, 0.5, 11, 1, 0};
+  b.interior = {1, 0.4, 0.4, 2, 0, 1};       // shallower: a's
+  a.crossings.count = 4;
+  a.crossings.grazing = 1;
+  a.crossings.max_depth = 0.3;
+  a.crossings.edge[0] = 5;
+  a.crossings.edge[1] = 9;
+  a.crossings.triangle = 40;
+  b.crossings.count = 1;
+  b.crossings.without_inside_vertex = 1;
+  b.crossings.max_depth = 0.3;
+  b.crossings.edge[0] = 5;
+  b.crossings.edge[1] = 8;                   // as deep, lower edge: b's
+  b.crossings.triangle = 12;
+  a.inverted = 2;
+  a.first_inverted = 30;
+  b.inverted = 1;
+  b.first_inverted = 17;
+  a.max_speed = b.max_speed = 2.0;
+  a.fastest = 4;
+  b.fastest = 6;                             // as fast, higher id: a's
+  a.nonfinite = 1;
+  a.deep_by_record[kCapped] = 2;
+  b.deep_by_record[kCapped] = 1;
+  for (const bool a_first : {true, false}) {
+    SCOPED_TRACE(a_first ? "a then b" : "b then a");
+    VerifyFrame f = none;
+    merge_verify_part(f, a_first ? a : b);
+    merge_verify_part(f, none);
+    merge_verify_part(f, a_first ? b : a);
+    EXPECT_EQ(f.surface.count, 5);
+    EXPECT_EQ(f.surface.vertex, 3);
+    EXPECT_EQ(f.surface.object, 0);
+    EXPECT_EQ(f.interior.count, 2);
+    EXPECT_EQ(f.interior.vertex, 11);
+    EXPECT_EQ(f.self.vertex, -1);
+    EXPECT_EQ(f.crossings.count, 5);
+    EXPECT_EQ(f.crossings.grazing, 1);
+    EXPECT_EQ(f.crossings.without_inside_vertex, 1);
+    EXPECT_EQ(f.crossings.edge[1], 8);
+    EXPECT_EQ(f.crossings.triangle, 12);
+    EXPECT_EQ(f.self_crossings.triangle, -1);
+    EXPECT_EQ(f.inverted, 3);
+    EXPECT_EQ(f.first_inverted, 17);
+    EXPECT_EQ(f.fastest, 4);
+    EXPECT_EQ(f.max_speed, 2.0);
+    EXPECT_EQ(f.nonfinite, 1);
+    EXPECT_EQ(f.deep_by_record[kCapped], 3);
+  }
+}
+
 TEST(Verify, MaximaKeepTheWorstCheck) {
   VerifyFrame a, b;
   a.median_edge = b.median_edge = 0.1;
