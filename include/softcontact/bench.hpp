@@ -92,6 +92,11 @@ struct BenchResult {
   /// those the ones reading the positions from ghost rows (split_forces.hpp).
   int split_helping_parts = 0, split_parts_from_ghosts = 0;
   std::int64_t ghost_rebuilds = 0;  ///< ghost-set rebuilds during the timed steps (rank 0)
+  /// Object boxes received per ghost-set test during the timed steps (max over ranks; 0
+  /// without a test): what the test costs a rank, against every object of the scene
+  /// before it exchanged boxes between neighbours only.
+  double ghost_boxes_max = 0;
+  std::int64_t ghost_tests = 0;     ///< ghost-set tests during the timed steps (rank 0; the same on every rank)
   /// With edge contacts: timed steps in which the edge search found its candidate pairs
   /// again (the skin used up; rank 0), and the pairs held per step (mean over steps, sum
   /// over ranks).

@@ -25,8 +25,18 @@ std::vector<Box> scene_boxes(const Scene& scene);
 /// Median over objects of the largest side of their box.
 double median_object_size(const std::vector<Box>& box);
 /// Every object's box at the current positions, on every rank: the owners' boxes
-/// assembled by a min/max reduction (collective over `comm`).
+/// assembled by a min/max reduction (collective over `comm`; 48 bytes per object of the
+/// scene: for a repartition, not for the ghost set).
 std::vector<Box> object_boxes(MPI_Comm comm, const Scene& scene, const World& w);
+
+/// The other ranks' objects whose box (at the current positions) lies within `skin` of
+/// the box of one of this rank's own objects (Box::within: the boxes grown by skin/2
+/// overlap), ascending: the set that testing every object's box (object_boxes) against
+/// every own box gives, but only boxes near a rank travel to it (each rank's hull of its
+/// own boxes all-gathered, then each rank sends every other the own boxes within `skin`
+/// of its hull). Per rank: 56 bytes per hull, P integers, 56 bytes per box sent or
+/// received (`received`, when given, gets the number of boxes received). Collective.
+std::vector<int> objects_within_reach(MPI_Comm comm, const World& w, double skin, std::int64_t* received = nullptr);
 
 class GhostSet {
 public:
@@ -38,7 +48,8 @@ public:
   GhostSet& operator=(const GhostSet&) = delete;
 
   /// The ghost set at the current positions: every other rank's object whose box, grown
-  /// by skin/2, overlaps the box of one of this rank's objects grown likewise (the World's
+  /// by skin/2, overlaps the box of one of this rank's objects grown likewise
+  /// (objects_within_reach; `partition` is not used: the owners are the World's) (the World's
   /// ghost part and the Halo rebuilt where it changed, the ghost rows of x and x_prev
   /// filled from their owners). Returns true when this rank's ghost objects changed (on
   /// one rank: when `force`), so that the detector must be rebuilt. Collective.
@@ -60,12 +71,18 @@ public:
   /// bytes_received(); the next rebuild(force) makes a new one.
   void drop();
 
+  /// The ghost reach [m]: objects closer than this are ghosted.
+  double skin() const { return skin_; }
   /// Whether there are other ranks to exchange with (a Halo exists).
   bool active() const { return halo_ != nullptr; }
   /// The neighbour messages of the contact response (null on one rank).
   NeighbourExchange* exchange();
   /// Ghost-set rebuilds so far.
   std::int64_t rebuilds() const { return rebuilds_; }
+  /// The ghost-set tests so far (objects_within_reach: at every rebuild, the set changed
+  /// or not), and the object boxes this rank received for them.
+  std::int64_t reach_tests() const { return reach_tests_; }
+  std::int64_t boxes_received() const { return boxes_received_; }
   /// Bytes this rank has received through its halos so far.
   std::int64_t bytes_received() const;
 
@@ -82,6 +99,7 @@ private:
   std::vector<double> x_at_build_;   // owned positions when the set was built
   std::unique_ptr<Halo> halo_;
   std::int64_t rebuilds_ = 0;
+  std::int64_t reach_tests_ = 0, boxes_received_ = 0;
   std::int64_t bytes_before_ = 0;    // of halos since replaced
 };
 

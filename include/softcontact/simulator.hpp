@@ -154,6 +154,9 @@ public:
   int split_ranks() const { return split_ranks_; }
   /// Ghost-set rebuilds so far (the halo grows and shrinks as objects move).
   std::int64_t ghost_rebuilds() const;
+  /// The ghost-set tests so far and the object boxes this rank received for them (GhostSet).
+  std::int64_t ghost_reach_tests() const;
+  std::int64_t ghost_boxes_received() const;
   /// Bytes this rank has received through the halo since construction.
   std::int64_t halo_bytes() const;
   /// Of what this rank sent, the split objects' exchanges since construction (states to

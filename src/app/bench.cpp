@@ -150,7 +150,7 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
 
   const double start = MPI_Wtime();
   double last_report = start, loop_start = start;
-  std::int64_t unused = 0, bytes0 = 0, split0 = 0, rebuilds0 = 0, cross = 0, records = 0, edge_searches = 0, edge_pairs = 0;
+  std::int64_t unused = 0, bytes0 = 0, split0 = 0, rebuilds0 = 0, tests0 = 0, boxes0 = 0, cross = 0, records = 0, edge_searches = 0, edge_pairs = 0;
   double compute = 0, compute_cpu = 0;
   for (std::int64_t k = 1; k <= total_steps; ++k) {
     const bool timed = k > opt.warmup;
@@ -160,6 +160,8 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
       bytes0 = sim.halo_bytes();
       split0 = sim.split_bytes_sent();
       rebuilds0 = sim.ghost_rebuilds();
+      tests0 = sim.ghost_reach_tests();
+      boxes0 = sim.ghost_boxes_received();
       loop_start = MPI_Wtime();
     }
     const double s0 = MPI_Wtime();
@@ -219,6 +221,11 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
     r.cpu_imbalance = usum > 0 ? umax / (usum / size) : 1;
     r.cross_rank_fraction = cr[1] > 0 ? static_cast<double>(cr[0]) / static_cast<double>(cr[1]) : 0;
     r.ghost_rebuilds = sim.ghost_rebuilds() - rebuilds0;
+    const std::int64_t tests = sim.ghost_reach_tests() - tests0;
+    r.ghost_tests = tests;
+    double boxes = tests > 0 ? static_cast<double>(sim.ghost_boxes_received() - boxes0) / static_cast<double>(tests) : 0;
+    MPI_Allreduce(MPI_IN_PLACE, &boxes, 1, MPI_DOUBLE, MPI_MAX, comm);
+    r.ghost_boxes_max = boxes;
     double split[2] = {static_cast<double>(sim.split_bytes_sent() - split0) / static_cast<double>(n),
                        static_cast<double>(sim.split_helped_tets())};
     double split_sum = split[0];
@@ -317,7 +324,9 @@ void print_bench_table(std::ostream& out, const BenchResult& r) {
         << r.edge_pair_searches << " of " << r.steps.size() << " timed steps\n";
   if (r.ranks > 1)
     out << "  halo traffic per step and rank: max " << fixed(r.halo_bytes_max / 1024, 1) << " KiB, mean "
-        << fixed(r.halo_bytes_mean / 1024, 1) << " KiB; ghost rebuilds " << r.ghost_rebuilds << "\n";
+        << fixed(r.halo_bytes_mean / 1024, 1) << " KiB; ghost-set tests " << r.ghost_tests << ", rebuilds "
+        << r.ghost_rebuilds << " (object boxes received per test: max " << fixed(r.ghost_boxes_max, 0) << " of "
+        << r.objects << " objects)\n";
   if (r.ranks > 1 && r.split_objects > 0)
     out << "  split objects: " << r.split_objects << "; their exchanges " << fixed(r.split_bytes_max / 1024, 1)
         << " KiB sent per step (max rank), " << fixed(r.split_bytes_sum / 1024, 1) << " KiB (all ranks); "

@@ -80,36 +80,108 @@ void GhostSet::update_final(World& w) {
   }
 }
 
+namespace {
+
+// One object's box on its way to a rank that may ghost it.
+struct SentBox {
+  std::int64_t object;
+  Box box;
+};
+
+}  // namespace
+
+// Each rank's hull of its own boxes (and whether they are all finite) is all-gathered;
+// then each rank sends every other rank the boxes of its own objects that pass that
+// rank's hull test (the test the receiver would make first, and monotone in the owned
+// box: a box not within reach of the hull is within reach of no owned box), and the
+// receiver tests them against its own boxes. An owned box that is not finite leaves its
+// rank with no hull test: it is sent every box, as the whole scene's test would try them
+// all. Counts by MPI_Alltoall (P integers per rank), boxes by MPI_Alltoallv.
+std::vector<int> objects_within_reach(MPI_Comm comm, const World& w, double skin, std::int64_t* received) {
+  const int nranks = comm_size(comm), rank = comm_rank(comm);
+  std::vector<Box> own(w.owned_objects.size(), Box::none());
+  for (std::size_t j = 0; j < own.size(); ++j) {
+    const auto k = static_cast<std::size_t>(w.owned_objects[j]);
+    const ObjectLayout& L = w.layout[k];
+    const auto off = static_cast<std::size_t>(w.vertex_offset[k]);
+    for (gid_t i = 0; i < L.vertex_count; ++i) add_point(own[j], &w.x[3 * (off + static_cast<std::size_t>(i))]);
+  }
+  // This rank's hull: lo, hi and 1 when every own box is finite.
+  double mine[7];
+  {
+    Box hull = Box::none();
+    bool finite = true;
+    for (const Box& o : own) {
+      for (int d = 0; d < 3; ++d) {
+        finite = finite && std::isfinite(o.lo[d]) && std::isfinite(o.hi[d]);
+        hull.lo[d] = std::min(hull.lo[d], o.lo[d]);
+        hull.hi[d] = std::max(hull.hi[d], o.hi[d]);
+      }
+    }
+    for (int d = 0; d < 3; ++d) {
+      mine[d] = hull.lo[d];
+      mine[3 + d] = hull.hi[d];
+    }
+    mine[6] = finite ? 1 : 0;
+  }
+  std::vector<double> hulls(7 * static_cast<std::size_t>(nranks));
+  MPI_Allgather(mine, 7, MPI_DOUBLE, hulls.data(), 7, MPI_DOUBLE, comm);
+
+  // To each rank the own boxes its hull test lets through (a rank without objects gets none).
+  std::vector<std::vector<SentBox>> out(static_cast<std::size_t>(nranks));
+  for (int r = 0; r < nranks; ++r) {
+    const double* h = &hulls[7 * static_cast<std::size_t>(r)];
+    if (r == rank || (!(h[0] <= h[3]) && h[6] != 0)) continue;
+    Box hull;
+    for (int d = 0; d < 3; ++d) {
+      hull.lo[d] = h[d];
+      hull.hi[d] = h[3 + d];
+    }
+    for (std::size_t j = 0; j < own.size(); ++j) {
+      if (own[j].empty()) continue;
+      if (h[6] != 0 && !hull.within(own[j], skin)) continue;
+      out[static_cast<std::size_t>(r)].push_back({w.owned_objects[j], own[j]});
+    }
+  }
+  std::vector<int> scount(static_cast<std::size_t>(nranks)), rcount(static_cast<std::size_t>(nranks));
+  std::vector<int> sdisp(static_cast<std::size_t>(nranks)), rdisp(static_cast<std::size_t>(nranks));
+  std::vector<SentBox> sbuf;
+  for (int r = 0; r < nranks; ++r) {
+    const auto u = static_cast<std::size_t>(r);
+    sdisp[u] = static_cast<int>(sizeof(SentBox) * sbuf.size());
+    scount[u] = static_cast<int>(sizeof(SentBox) * out[u].size());
+    sbuf.insert(sbuf.end(), out[u].begin(), out[u].end());
+  }
+  MPI_Alltoall(scount.data(), 1, MPI_INT, rcount.data(), 1, MPI_INT, comm);
+  int total = 0;
+  for (int r = 0; r < nranks; ++r) {
+    rdisp[static_cast<std::size_t>(r)] = total;
+    total += rcount[static_cast<std::size_t>(r)];
+  }
+  std::vector<SentBox> rbuf(static_cast<std::size_t>(total) / sizeof(SentBox));
+  MPI_Alltoallv(sbuf.data(), scount.data(), sdisp.data(), MPI_BYTE, rbuf.data(), rcount.data(), rdisp.data(), MPI_BYTE,
+                comm);
+  if (received) *received = static_cast<std::int64_t>(rbuf.size());
+  std::sort(rbuf.begin(), rbuf.end(), [](const SentBox& a, const SentBox& b) { return a.object < b.object; });
+  std::vector<int> ghosts;
+  for (const SentBox& b : rbuf)
+    for (const Box& o : own)
+      if (o.within(b.box, skin)) {
+        ghosts.push_back(static_cast<int>(b.object));
+        break;
+      }
+  return ghosts;
+}
+
 // While no owned vertex has moved skin/2 since the set was built, no ghosted pair's boxes
 // can have come to overlap at x~ without being ghosted: the set stays valid.
 bool GhostSet::rebuild(World& w, const std::vector<int>& partition, bool force) {
   if (nranks_ == 1) return force;
-  const std::size_t no = scene_.objects.size();
-  const std::vector<Box> box = object_boxes(comm_, scene_, w);
-  // The owned boxes' hull first: a box not within the skin of the hull is within the skin
-  // of no owned box (the test is monotone in the owned box), so only the objects near
-  // this rank's cost a loop over its own. Exact: the same set as without it, unless an
-  // owned box is not finite (then no hull: every object is tested against every box).
-  Box hull = Box::none();
-  bool finite = true;
-  for (int a : w.owned_objects) {
-    const Box& o = box[static_cast<std::size_t>(a)];
-    for (int d = 0; d < 3; ++d) {
-      finite = finite && std::isfinite(o.lo[d]) && std::isfinite(o.hi[d]);
-      hull.lo[d] = std::min(hull.lo[d], o.lo[d]);
-      hull.hi[d] = std::max(hull.hi[d], o.hi[d]);
-    }
-  }
-  std::vector<int> ghosts;
-  for (std::size_t b = 0; b < no; ++b) {
-    if (partition[b] == rank_ || !(box[b].lo[0] <= box[b].hi[0])) continue;
-    if (finite && !hull.within(box[b], skin_)) continue;
-    for (int a : w.owned_objects)
-      if (box[static_cast<std::size_t>(a)].within(box[b], skin_)) {
-        ghosts.push_back(static_cast<int>(b));
-        break;
-      }
-  }
+  (void)partition;  // the owners are the World's
+  std::int64_t received = 0;
+  const std::vector<int> ghosts = objects_within_reach(comm_, w, skin_, &received);
+  boxes_received_ += received;
+  ++reach_tests_;
   int changed = force || ghosts != w.ghost_objects ? 1 : 0;
   MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_LOR, comm_);
   x_at_build_.assign(w.x.begin(), w.x.begin() + static_cast<std::ptrdiff_t>(3 * w.n_owned));

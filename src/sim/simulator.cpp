@@ -187,6 +187,8 @@ int Simulator::split_parts_from_ghosts() const {
   return s ? s->parts_from_ghosts() : 0;
 }
 std::int64_t Simulator::ghost_rebuilds() const { return ghosts_->rebuilds(); }
+std::int64_t Simulator::ghost_reach_tests() const { return ghosts_->reach_tests(); }
+std::int64_t Simulator::ghost_boxes_received() const { return ghosts_->boxes_received(); }
 
 Simulator::~Simulator() = default;
 
