@@ -85,23 +85,59 @@ struct ObjectShape {
   Box box = Box::none();       ///< at its initial positions; a NaN coordinate replaces the bound (add_point in box.hpp)
 };
 
-/// How an object's mesh is made from its entry's mesh (already scaled, rotated and moved by
-/// the entry's transform), so that a rank can drop the mesh and make it again, bitwise the
-/// same, when it needs it (Scene::mesh, Scene::drop_meshes; docs/architecture.md, "Who
-/// holds which mesh"). The scene parser places every copy through place() itself.
+/// An entry's mesh as its transform placed it (scaled, rotated, moved), shared by the
+/// objects made from it. It is held, or let go and made again from its source (the mesh
+/// file read again, the primitive generated again) on a rank that needs it later, bitwise
+/// the same: a digest of the first mesh is compared with every mesh made again, so that a
+/// mesh file changed or removed during the run is a RuntimeFailure, never another body
+/// (docs/architecture.md, "Who holds which mesh").
+class EntryMesh {
+public:
+  /// An entry mesh that holds `placed`; `remake` makes it again (none: never let go).
+  static std::shared_ptr<const EntryMesh> held(std::string source, TetMesh placed, std::function<TetMesh()> remake);
+  /// One that keeps only `placed`'s digest and `remake` until a rank needs the mesh.
+  static std::shared_ptr<const EntryMesh> recipe(std::string source, const TetMesh& placed, std::function<TetMesh()> remake);
+  /// The mesh: the held one, or made again and then held until drop().
+  const TetMesh& get() const;
+  /// The mesh by value without holding it: a copy of the held one, or one made again.
+  TetMesh make() const;
+  bool held() const { return held_ != nullptr; }
+  bool can_drop() const { return static_cast<bool>(remake_); }
+  /// Lets go of the mesh when it can be made again. Returns the bytes let go.
+  std::size_t drop() const;
+  const std::string& source() const { return source_; }
+
+private:
+  EntryMesh(std::string source, const TetMesh& placed, std::function<TetMesh()> remake);
+  TetMesh remade() const;
+  std::string source_;
+  std::function<TetMesh()> remake_;
+  std::uint64_t digest_ = 0;
+  mutable std::unique_ptr<TetMesh> held_;
+};
+
+/// How an object's mesh is made from its entry's mesh, so that a rank can drop the mesh
+/// and make it again, bitwise the same, when it needs it (Scene::mesh, Scene::drop_meshes;
+/// docs/architecture.md, "Who holds which mesh"). The scene parser places every copy
+/// through place() itself.
 struct Placement {
   enum class Kind {
-    kept,          ///< no recipe (a single-copy entry, a checkpoint's mesh, a hand-made object): never dropped
+    kept,          ///< no recipe (a checkpoint's mesh, a hand-made object): never dropped
+    entry,         ///< x = base (a single-copy entry: the object is its entry's mesh)
     offset,        ///< x = base + offset (a grid copy)
     about_centre,  ///< x = rotation (base - centre) + offset (a random copy: rotated about its centre, moved there)
   };
   Kind kind = Kind::kept;
-  std::shared_ptr<const TetMesh> base;                  ///< the entry's mesh, shared by its copies
+  std::shared_ptr<const EntryMesh> base;                ///< the entry's mesh, shared by its copies
   std::array<double, 3> offset{};                       ///< [m]
   std::array<double, 9> rotation{1, 0, 0, 0, 1, 0, 0, 0, 1};  ///< row-major
   std::array<double, 3> centre{};                       ///< [m]
 
-  bool can_remake() const { return kind != Kind::kept && base != nullptr; }
+  bool can_remake() const {
+    return kind != Kind::kept && base != nullptr && (kind != Kind::entry || base->can_drop());
+  }
+  /// Whether the object is one of several copies placed from `base` (grid or random).
+  bool is_copy() const { return (kind == Kind::offset || kind == Kind::about_centre) && base != nullptr; }
   /// The placed mesh (kind kept: an empty mesh).
   TetMesh place() const;
 };
@@ -221,8 +257,14 @@ struct Scene {
   /// Computes every object's shape (from the meshes held now), so that drop_meshes loses
   /// nothing a rank must know of all objects.
   void describe_objects() const;
+  /// The same, shared over `parts` ranks: the boundary triangles of the objects without a
+  /// shape yet (extract_surface, the costly part) are counted by one part each (the k-th
+  /// such object by part k % parts) and `sum` adds the parts' counts (an MPI_Allreduce, as
+  /// SceneLimits::sum), so that no rank extracts every boundary. Collective.
+  void describe_objects(int part, int parts, const std::function<void(std::vector<double>&)>& sum) const;
   /// Drops the mesh and surface of every object with keep[k] == 0 whose placement can make
-  /// it again (shapes are computed first). Returns the bytes of mesh and surface dropped.
+  /// it again (shapes are computed first), and the entry meshes (Placement::base) that no
+  /// kept copy is placed from. Returns the bytes of mesh and surface dropped.
   std::size_t drop_meshes(const std::vector<char>& keep) const;
 };
 

@@ -51,8 +51,10 @@ MemoryEstimate estimate_memory(const Scene& scene, int nranks) {
   for (std::size_t k = 0; k < scene.objects.size(); ++k) {
     const ObjectShape& s = scene.shape(k);
     const auto t = static_cast<std::int64_t>(s.tets), v = static_cast<std::int64_t>(s.vertices);
-    // Copies of multi-copy entries are held only where owned or ghosted (Scene::drop_meshes).
-    if (!scene.objects[k].placement.can_remake()) everywhere_t += t;
+    // Copies of multi-copy entries are held only where owned or ghosted (Scene::drop_meshes);
+    // the meshes of single-copy entries by every rank while the scene is read and the
+    // World built, and then dropped likewise: they count towards the peak.
+    if (!scene.objects[k].placement.is_copy()) everywhere_t += t;
     e.tets += t;
     e.vertices += v;
     big_t = std::max(big_t, t);

@@ -197,16 +197,30 @@ Mat3 rotation_axis_angle(const Vec3& axis, double deg) {
 
 void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool hold_meshes,
                  std::vector<PendingRandom>* pending) {
+  // The entry's mesh as its transform places it, and how to make it again.
+  std::function<TetMesh()> remake;
+  if (spec.remake)
+    remake = [make = spec.remake, scale = spec.scale, rotation = spec.rotation, translate = spec.translate] {
+      return transformed(make(), scale, rotation, translate);
+    };
+  const std::string source = "object '" + spec.name + "' (" + spec.source + ")";
+  TetMesh placed = transformed(spec.mesh, spec.scale, spec.rotation, spec.translate);
   if (spec.instancing == EntrySpec::Instancing::single) {
-    // The object is the entry: nothing to share, no recipe (Placement::Kind::kept).
-    objects.push_back(make_object(spec, transformed(spec.mesh, spec.scale, spec.rotation, spec.translate), spec.name));
+    // The object is the entry: its mesh is held by the object, and the entry keeps only
+    // how to make it again (Placement::Kind::entry), when it can.
+    Placement p;
+    if (remake) {
+      p.kind = Placement::Kind::entry;
+      p.base = EntryMesh::recipe(source, placed, std::move(remake));
+    }
+    objects.push_back(make_object(spec, std::move(placed), spec.name, std::move(p)));
     return;
   }
   // Copies keep the entry's mesh once, shared, and how each is placed from it, so that a
   // rank can drop the copies it does not need and make them again bitwise the same
   // (Placement::place, which places them here too).
-  const auto shared = std::make_shared<const TetMesh>(transformed(spec.mesh, spec.scale, spec.rotation, spec.translate));
-  const TetMesh& base = *shared;
+  const auto shared = EntryMesh::held(source, std::move(placed), std::move(remake));
+  const TetMesh& base = shared->get();
   ObjectShape copy_shape;  // counts shared by all copies (the boundary is a matter of topology)
   copy_shape.vertices = base.num_vertices();
   copy_shape.tets = base.num_tets();

@@ -3,6 +3,7 @@
 // instantiated into objects.
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -23,6 +24,9 @@ struct EntrySpec {
   int index = -1;                 ///< position among the scene's entries (SceneObject::entry)
   int material = 0;
   TetMesh mesh;                   ///< in the mesh's own coordinates
+  /// Makes `mesh` again, bitwise (the file read again, the primitive generated again);
+  /// none: the entry's objects keep their meshes (Placement::Kind::kept).
+  std::function<TetMesh()> remake;
   Vec3 scale{1, 1, 1};
   Mat3 rotation{1, 0, 0, 0, 1, 0, 0, 0, 1};
   Vec3 translate{};

@@ -1,6 +1,9 @@
 // Which meshes a rank holds (scene.hpp: Placement, Scene::mesh, Scene::drop_meshes): every
 // object's shape is known everywhere, its mesh only where it is needed, made again from
 // its entry's mesh when it is needed later (docs/architecture.md, "Who holds which mesh").
+#include <cstring>
+#include <functional>
+#include <map>
 #include <utility>
 
 #include "softcontact/error.hpp"
@@ -10,11 +13,79 @@
 
 namespace softcontact {
 
+namespace {
+// FNV-1a over the mesh's bytes, a word at a time: which mesh it is, to the bit.
+std::uint64_t mesh_digest(const TetMesh& m) {
+  std::uint64_t h = 14695981039346656037ull;
+  auto add = [&h](const void* data, std::size_t bytes) {
+    const auto* c = static_cast<const unsigned char*>(data);
+    std::size_t i = 0;
+    for (; i + 8 <= bytes; i += 8) {
+      std::uint64_t w;
+      std::memcpy(&w, c + i, 8);
+      h = (h ^ w) * 1099511628211ull;
+    }
+    for (; i < bytes; ++i) h = (h ^ c[i]) * 1099511628211ull;
+  };
+  const std::uint64_t n[2] = {m.points.size(), m.tets.size()};
+  add(n, sizeof n);
+  add(m.points.data(), m.points.size() * sizeof(double));
+  add(m.tets.data(), m.tets.size() * sizeof(index_t));
+  return h;
+}
+
+std::size_t mesh_bytes(const TetMesh& m) {
+  return m.points.capacity() * sizeof(double) + m.tets.capacity() * sizeof(index_t);
+}
+}  // namespace
+
+EntryMesh::EntryMesh(std::string source, const TetMesh& placed, std::function<TetMesh()> remake)
+    : source_(std::move(source)), remake_(std::move(remake)), digest_(mesh_digest(placed)) {}
+
+std::shared_ptr<const EntryMesh> EntryMesh::held(std::string source, TetMesh placed, std::function<TetMesh()> remake) {
+  std::shared_ptr<EntryMesh> e(new EntryMesh(std::move(source), placed, std::move(remake)));
+  e->held_ = std::make_unique<TetMesh>(std::move(placed));
+  return e;
+}
+
+std::shared_ptr<const EntryMesh> EntryMesh::recipe(std::string source, const TetMesh& placed, std::function<TetMesh()> remake) {
+  if (!remake) return held(std::move(source), placed, nullptr);
+  return std::shared_ptr<const EntryMesh>(new EntryMesh(std::move(source), placed, std::move(remake)));
+}
+
+TetMesh EntryMesh::remade() const {
+  TetMesh m;
+  try {
+    m = remake_();
+  } catch (const std::exception& e) {
+    throw RuntimeFailure("the mesh of " + source_ + " could not be made again during the run: " + e.what());
+  }
+  if (mesh_digest(m) != digest_)
+    throw RuntimeFailure("the mesh of " + source_ + " differs from the one read when the scene was loaded (the " +
+                         "file changed during the run): keep mesh files unchanged while a run uses them");
+  return m;
+}
+
+const TetMesh& EntryMesh::get() const {
+  if (!held_) held_ = std::make_unique<TetMesh>(remade());
+  return *held_;
+}
+
+TetMesh EntryMesh::make() const { return held_ ? *held_ : remade(); }
+
+std::size_t EntryMesh::drop() const {
+  if (!held_ || !remake_) return 0;
+  const std::size_t bytes = mesh_bytes(*held_);
+  held_.reset();
+  return bytes;
+}
+
 // The arithmetic of every copy's placement, here only: the scene parser places copies
 // through it, so that a mesh made again is bitwise the one placed first.
 TetMesh Placement::place() const {
   if (!can_remake()) return {};
-  const TetMesh& b = *base;
+  if (kind == Kind::entry) return base->make();
+  const TetMesh& b = base->get();
   TetMesh m = b;
   const auto& R = rotation;
   for (std::size_t i = 0; i < b.num_vertices(); ++i) {
@@ -63,17 +134,23 @@ const Surface& Scene::surface(std::size_t k) const {
   return *o.surface;
 }
 
+namespace {
+ObjectShape shape_of(const TetMesh& m, std::size_t triangles) {
+  ObjectShape s;
+  s.vertices = m.num_vertices();
+  s.tets = m.num_tets();
+  s.triangles = triangles;
+  for (std::size_t i = 0; i < m.num_vertices(); ++i) add_point(s.box, &m.points[3 * i]);
+  return s;
+}
+}  // namespace
+
 const ObjectShape& Scene::shape(std::size_t k) const {
   const SceneObject& o = objects[k];
   if (!o.shape) {
     const MeshView v = view_mesh(k);
     const TetMesh& m = v.get();
-    ObjectShape s;
-    s.vertices = m.num_vertices();
-    s.tets = m.num_tets();
-    s.triangles = o.surface ? o.surface->num_triangles() : extract_surface(m).num_triangles();
-    for (std::size_t i = 0; i < m.num_vertices(); ++i) add_point(s.box, &m.points[3 * i]);
-    o.shape = s;
+    o.shape = shape_of(m, o.surface ? o.surface->num_triangles() : extract_surface(m).num_triangles());
   }
   return *o.shape;
 }
@@ -82,18 +159,36 @@ void Scene::describe_objects() const {
   for (std::size_t k = 0; k < objects.size(); ++k) (void)shape(k);
 }
 
+void Scene::describe_objects(int part, int parts, const std::function<void(std::vector<double>&)>& sum) const {
+  if (parts <= 1 || !sum) return describe_objects();
+  std::vector<std::size_t> todo;  // the same list on every part: the scene is
+  for (std::size_t k = 0; k < objects.size(); ++k)
+    if (!objects[k].shape && !objects[k].surface) todo.push_back(k);
+  std::vector<double> triangles(todo.size(), 0.0);
+  for (std::size_t i = static_cast<std::size_t>(part); i < todo.size(); i += static_cast<std::size_t>(parts))
+    triangles[i] = static_cast<double>(extract_surface(view_mesh(todo[i]).get()).num_triangles());
+  sum(triangles);  // 0 + n is n: each count as one part made it (exact below 2^53)
+  for (std::size_t i = 0; i < todo.size(); ++i)
+    objects[todo[i]].shape = shape_of(view_mesh(todo[i]).get(), static_cast<std::size_t>(triangles[i]));
+  describe_objects();  // those with a surface already
+}
+
 std::size_t Scene::drop_meshes(const std::vector<char>& keep) const {
   SC_ASSERT(keep.size() == objects.size());
   describe_objects();
   std::size_t bytes = 0;
+  std::map<const EntryMesh*, bool> bases;  // entry mesh -> a kept copy is placed from it
   for (std::size_t k = 0; k < objects.size(); ++k) {
     const SceneObject& o = objects[k];
+    if (o.placement.base) bases[o.placement.base.get()] |= keep[k] && o.placement.is_copy();
     if (keep[k] || !o.placement.can_remake()) continue;
-    bytes += o.mesh.points.capacity() * sizeof(double) + o.mesh.tets.capacity() * sizeof(index_t);
+    bytes += mesh_bytes(o.mesh);
     if (o.surface) bytes += (o.surface->triangles.capacity() + o.surface->vertices.capacity()) * sizeof(index_t);
     o.mesh = TetMesh();
     o.surface.reset();
   }
+  for (const auto& [base, needed] : bases)
+    if (!needed) bytes += base->drop();
   return bytes;
 }
 

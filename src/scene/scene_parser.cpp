@@ -412,7 +412,7 @@ struct OGridSize {
   }
 };
 
-TetMesh parse_primitive(const Reader& r, const YAML::Node& n, const std::string& where, const SizeBudget& budget) {
+std::function<TetMesh()> parse_primitive(const Reader& r, const YAML::Node& n, const std::string& where, const SizeBudget& budget) {
   r.expect_map(n, "'primitive' of " + where);
   const auto type_node = r.require(n, "type", "'primitive' of " + where);
   enum class P { box, plate, cylinder, sphere, torus };
@@ -458,7 +458,7 @@ TetMesh parse_primitive(const Reader& r, const YAML::Node& n, const std::string&
         }
         const double cx = cells[0], cy = cells[1], cz = cells[2];
         fits((cx + 1) * (cy + 1) * (cz + 1), 6 * cx * cy * cz);
-        return make_box(size[0], size[1], size[2], cells[0], cells[1], cells[2]);
+        return [=] { return make_box(size[0], size[1], size[2], cells[0], cells[1], cells[2]); };
       }
       case P::plate: {
         r.check_keys(n, {"type", "size", "thickness", "cells", "layers"}, pw);
@@ -474,7 +474,7 @@ TetMesh parse_primitive(const Reader& r, const YAML::Node& n, const std::string&
         }
         const int layers = res("layers", 1, 1);
         fits((nx + 1.0) * (ny + 1.0) * (layers + 1.0), 6.0 * nx * ny * layers);
-        return make_box(lx, ly, t, nx, ny, layers);
+        return [=] { return make_box(lx, ly, t, nx, ny, layers); };
       }
       case P::cylinder: {
         r.check_keys(n, {"type", "radius", "height", "resolution", "axial"}, pw);
@@ -484,7 +484,7 @@ TetMesh parse_primitive(const Reader& r, const YAML::Node& n, const std::string&
         const int ax = derived("axial", k * h / rad, 1, "'resolution' * 'height' / 'radius'");
         const OGridSize g(2.0 * k);
         fits(((g.n + 1) * (g.n + 1) + 4 * g.n * g.m) * (ax + 1.0), 6 * (g.n * g.n + 4 * g.n * g.m) * ax);
-        return make_cylinder(rad, h, k, ax);
+        return [=] { return make_cylinder(rad, h, k, ax); };
       }
       case P::sphere: {
         r.check_keys(n, {"type", "radius", "resolution"}, pw);
@@ -492,7 +492,7 @@ TetMesh parse_primitive(const Reader& r, const YAML::Node& n, const std::string&
         const int k = res("resolution", 6, 2);
         const OGridSize g(k);
         fits((g.n + 1) * (g.n + 1) * (g.n + 1) + (6 * g.n * g.n + 2) * g.m, 6 * (g.n * g.n * g.n + 6 * g.n * g.n * g.m));
-        return make_sphere(rad, k);
+        return [=] { return make_sphere(rad, k); };
       }
       case P::torus: {
         r.check_keys(n, {"type", "major_radius", "minor_radius", "resolution", "around"}, pw);
@@ -504,7 +504,7 @@ TetMesh parse_primitive(const Reader& r, const YAML::Node& n, const std::string&
         const int around = derived("around", M_PI * R * k / a, 3, "pi * 'major_radius' * 'resolution' / 'minor_radius'");
         const OGridSize g(k);
         fits(((g.n + 1) * (g.n + 1) + 4 * g.n * g.m) * around, 6 * (g.n * g.n + 4 * g.n * g.m) * around);
-        return make_torus(R, a, around, k);
+        return [=] { return make_torus(R, a, around, k); };
       }
     }
   } catch (const InputError& e) {
@@ -552,9 +552,16 @@ void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const 
         for (const auto& w : rep.warnings) scene.warnings.push_back(w);
       }
       spec.mesh = it->second.first;
+      spec.remake = [key] { return read_mesh(key); };  // its warnings were given once, here
       spec.source = rel;
     } else if (n["primitive"]) {
-      spec.mesh = parse_primitive(r, n["primitive"], where, budget);
+      spec.remake = parse_primitive(r, n["primitive"], where, budget);
+      try {
+        spec.mesh = spec.remake();
+      } catch (const InputError& e) {
+        if (!e.file().empty()) throw;
+        r.fail(n["primitive"], e.detail());
+      }
       spec.source = "primitive " + n["primitive"]["type"].Scalar();
     } else {
       r.fail(n, where + " needs a 'mesh' file or a 'primitive'");
@@ -688,12 +695,12 @@ std::vector<double> object_frequencies(const Scene& scene, int part, int parts,
   std::vector<double> frequency(n, 0.0);
   std::vector<std::size_t> from(n);  // the object whose value object i takes
   std::vector<std::size_t> units;    // the objects whose mesh is computed, in object order
-  std::map<std::pair<const TetMesh*, int>, std::size_t> first;  // (entry mesh, material) -> its first copy
+  std::map<std::pair<const EntryMesh*, int>, std::size_t> first;  // (entry mesh, material) -> its first copy
   for (std::size_t i = 0; i < n; ++i) {
     const SceneObject& o = scene.objects[i];
     if (o.kinematic) continue;
     from[i] = i;
-    if (o.placement.can_remake()) {
+    if (o.placement.is_copy()) {
       const auto [it, fresh] = first.emplace(std::make_pair(o.placement.base.get(), o.material), i);
       from[i] = it->second;
       if (!fresh) continue;
@@ -706,7 +713,7 @@ std::vector<double> object_frequencies(const Scene& scene, int part, int parts,
     const std::size_t i = units[k];
     const SceneObject& o = scene.objects[i];
     const Material& mat = scene.materials[o.material];
-    frequency[i] = o.placement.can_remake() ? max_tet_frequency(*o.placement.base, mat)
+    frequency[i] = o.placement.is_copy() ? max_tet_frequency(o.placement.base->get(), mat)
                                             : max_tet_frequency(scene.view_mesh(i).get(), mat);
   }
   if (shared) sum(frequency);  // 0 + w is w, NaN stays NaN: each value as computed alone
@@ -797,6 +804,9 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path, c
   StableStep stable;
   std::map<int, MeshFrequency> mesh_cache;
   const std::vector<double> frequency = object_frequencies(scene, limits.part, limits.parts, limits.sum);
+  // Every object's shape, now that every mesh is in hand: the ranks share the boundaries
+  // (the copies placed without their meshes have theirs already).
+  if (!limits.hold_copy_meshes) scene.describe_objects(limits.part, limits.parts, limits.sum);
   for (std::size_t i = 0; i < scene.objects.size(); ++i) {
     const SceneObject& o = scene.objects[i];
     if (o.kinematic) continue;

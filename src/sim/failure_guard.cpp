@@ -55,9 +55,9 @@ GuardScales guard_scales(const Scene& scene) {
   return g;
 }
 
-FailureGuard::FailureGuard(const Scene& scene, const std::string& output_dir, bool restart, double energy0,
-                           double energy_scale)
-    : scene_(scene), scales_(guard_scales(scene)), dir_(output_dir), energy0_(energy0), release_(energy_scale),
+FailureGuard::FailureGuard(const Scene& scene, const GuardScales& scales, const std::string& output_dir, bool restart,
+                           double energy0, double energy_scale)
+    : scene_(scene), scales_(scales), dir_(output_dir), energy0_(energy0), release_(energy_scale),
       have_energy_(restart) {}
 
 void FailureGuard::fail(std::int64_t step, double time, const std::string& what, bool solver) const {

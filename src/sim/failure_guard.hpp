@@ -28,7 +28,10 @@ class FailureGuard {
 public:
   /// `energy0` and `energy_scale` as a checkpoint saved them (`restart`), else taken from
   /// the first frame.
-  FailureGuard(const Scene& scene, const std::string& output_dir, bool restart, double energy0, double energy_scale);
+  /// `scales`: guard_scales(scene), taken before the Simulator drops the meshes a rank does
+  /// not need (it would make them again for the pass).
+  FailureGuard(const Scene& scene, const GuardScales& scales, const std::string& output_dir, bool restart,
+               double energy0, double energy_scale);
 
   double max_speed() const { return scales_.max_speed; }
   double energy0() const { return energy0_; }

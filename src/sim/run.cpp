@@ -276,8 +276,10 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     for (int r : info.partition) same = same && r >= 0 && r < nranks;
     partition = same ? info.partition : partition_at(scene, info.boxes, nranks, {}, comm);
   }
-  // Before the Simulator drops the meshes this rank does not need: checkpoints carry it.
+  // Before the Simulator drops the meshes this rank does not need (whole-scene passes
+  // would make them again): the fingerprint checkpoints carry, the failure guard's scales.
   const std::uint64_t fingerprint = scene_fingerprint(scene);
+  const GuardScales guard_scale = guard_scales(scene);
   Simulator simulator(comm, scene, partition);
   if (restart) {
     StepState state;
@@ -311,7 +313,7 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
   }
 
   // A failure: every rank throws the same message, with where to go on from.
-  FailureGuard guard(scene, dir.string(), restart != nullptr, restart ? restart->info.energy0 : 0,
+  FailureGuard guard(scene, guard_scale, dir.string(), restart != nullptr, restart ? restart->info.energy0 : 0,
                      restart ? restart->info.energy_scale : 0);
   guard.watch_frames(writer.get());
   if (continuing) guard.checkpoint_written(restart->path, first);

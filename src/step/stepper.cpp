@@ -95,11 +95,11 @@ SerialStepper::SerialStepper(const Scene& scene, World& world, const CollisionSe
 
 SelfGapCache self_gap_cache_for(const Scene& scene) {
   SelfGapCache c;
-  std::unordered_map<const TetMesh*, std::int32_t> bases;
+  std::unordered_map<const EntryMesh*, std::int32_t> bases;
   c.entry.assign(scene.objects.size(), -1);
   for (std::size_t k = 0; k < scene.objects.size(); ++k) {
     const Placement& p = scene.objects[k].placement;
-    if (p.can_remake()) c.entry[k] = bases.emplace(p.base.get(), static_cast<std::int32_t>(bases.size())).first->second;
+    if (p.is_copy()) c.entry[k] = bases.emplace(p.base.get(), static_cast<std::int32_t>(bases.size())).first->second;
   }
   return c;
 }

@@ -1,14 +1,20 @@
 // Which meshes a scene holds (scene.hpp: Placement, Scene::mesh, Scene::drop_meshes): a
-// copy made again from its entry's mesh is bitwise the copy placed by the parser, and a
+// copy made again from its entry's mesh is bitwise the copy placed by the parser, a
+// single-copy entry's mesh made again from its file or primitive is the mesh read first, and a
 // scene loaded without its copies' meshes knows every object's counts and box all the same.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
 #include "softcontact/error.hpp"
 #include "softcontact/forces.hpp"
+#include "softcontact/mesh_io.hpp"
+#include "softcontact/primitives.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/surface.hpp"
 
@@ -100,34 +106,113 @@ TEST(SceneObjects, GridCopiesAreTheFirstCopyMovedByTheirOffset) {
     }
 }
 
-TEST(SceneObjects, DropMeshesKeepsShapesAndWhatCannotBeRemade) {
+TEST(SceneObjects, DropMeshesDropsEveryMeshItCanMakeAgain) {
   const Scene held = load_scene_from_string(kScene, "scene.yaml");
   std::vector<char> keep(held.objects.size(), 0);
   keep[3] = 1;
   for (std::size_t k = 0; k < held.objects.size(); ++k) (void)held.surface(k);
   const std::size_t bytes = held.drop_meshes(keep);
-  // 17 copies dropped (the floor has no recipe; copy 3 is kept), each with its surface.
+  // 18 objects dropped (all but copy 3: the single-copy floor too, made again from its
+  // primitive), each with its surface, and the ball entry's mesh (no ball is kept); the
+  // box entry's mesh stays for copy 3.
   std::size_t expected = 0;
   const Scene fresh = load_scene_from_string(kScene, "scene.yaml");
-  for (std::size_t k = 1; k < fresh.objects.size(); ++k) {
+  for (std::size_t k = 0; k < fresh.objects.size(); ++k) {
     if (k == 3) continue;
     const TetMesh& m = fresh.objects[k].mesh;
     const Surface s = extract_surface(m);
     expected += m.points.size() * sizeof(double) + m.tets.size() * sizeof(index_t) +
                 (s.triangles.size() + s.vertices.size()) * sizeof(index_t);
   }
+  const TetMesh& ball = fresh.objects[7].placement.base->get();
+  expected += ball.points.size() * sizeof(double) + ball.tets.size() * sizeof(index_t);
   EXPECT_GE(bytes, expected);
-  EXPECT_FALSE(held.objects[0].mesh.points.empty());
+  EXPECT_LE(bytes, expected + expected / 4) << "capacity beyond the sizes";
   EXPECT_FALSE(held.objects[3].mesh.points.empty());
+  EXPECT_EQ(held.objects[0].placement.kind, Placement::Kind::entry);
+  EXPECT_FALSE(held.objects[0].placement.base->held()) << "a single-copy entry's object holds its mesh, not the entry";
+  EXPECT_TRUE(held.objects[1].placement.base->held()) << "copy 3 is placed from the box entry's mesh";
+  EXPECT_FALSE(held.objects[7].placement.base->held()) << "no ball is kept";
   for (std::size_t k = 0; k < held.objects.size(); ++k) {
-    if (k != 0 && k != 3) {
+    if (k != 3) {
       EXPECT_TRUE(held.objects[k].mesh.points.empty()) << k;
       EXPECT_EQ(held.objects[k].surface, nullptr) << k;
     }
     EXPECT_EQ(held.shape(k).tets, fresh.objects[k].mesh.num_tets());
     EXPECT_EQ(held.mesh(k).points, fresh.objects[k].mesh.points) << k;
+    EXPECT_EQ(held.mesh(k).tets, fresh.objects[k].mesh.tets) << k;
     EXPECT_EQ(held.surface(k).triangles, extract_surface(fresh.objects[k].mesh).triangles) << k;
   }
+  EXPECT_FALSE(held.objects[0].placement.base->held()) << "made again for the object, not held twice";
+}
+
+// A hand-made object (no recipe) is never dropped.
+TEST(SceneObjects, DropMeshesKeepsWhatCannotBeMadeAgain) {
+  Scene s = load_scene_from_string(kScene, "scene.yaml");
+  s.objects[0].placement = Placement{};
+  const std::vector<double> points = s.objects[0].mesh.points;
+  (void)s.drop_meshes(std::vector<char>(s.objects.size(), 0));
+  EXPECT_EQ(s.objects[0].mesh.points, points);
+  EXPECT_TRUE(s.objects[1].mesh.points.empty());
+}
+
+namespace {
+
+// Writes a scene whose single-copy entry and grid entry read one mesh file, in `dir`.
+std::string write_file_scene(const std::filesystem::path& dir, const TetMesh& mesh) {
+  std::filesystem::create_directories(dir);
+  write_gmsh((dir / "block.msh").string(), mesh, GmshFormat::v41_ascii);
+  const std::string path = (dir / "scene.yaml").string();
+  std::ofstream(path) << kHeader << R"(  - name: slab
+    material: rubber
+    mesh: block.msh
+    transform: {scale: [2, 1, 0.5], rotate: [10, 20, 30], translate: [0.1, 0.2, 0.3]}
+  - name: block
+    material: rubber
+    mesh: block.msh
+    transform: {translate: [0, 0, 1]}
+    instances: {grid: {count: [2, 1, 1], spacing: [0.5, 0, 0]}}
+)";
+  return path;
+}
+
+}  // namespace
+
+// A mesh file read again is the mesh first read, to the bit; a file changed during the run
+// is a RuntimeFailure that names the object, never another body.
+TEST(SceneObjects, MeshFilesReadAgainAreBitwiseTheFirstAndAChangeIsAnError) {
+  const auto dir = std::filesystem::path(testing::TempDir()) / "softcontact_scene_objects";
+  const std::string path = write_file_scene(dir, make_box(0.3, 0.2, 0.1, 3, 2, 2));
+  const Scene fresh = load_scene(path);
+  const Scene s = load_scene(path, lean());
+  ASSERT_EQ(s.objects.size(), 3u);
+  EXPECT_EQ(s.objects[0].placement.kind, Placement::Kind::entry);
+  (void)s.drop_meshes({0, 0, 0});
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_TRUE(s.objects[k].mesh.points.empty()) << k;
+    EXPECT_EQ(s.mesh(k).points, fresh.objects[k].mesh.points) << k;
+    EXPECT_EQ(s.mesh(k).tets, fresh.objects[k].mesh.tets) << k;
+  }
+  (void)s.drop_meshes({0, 0, 0});
+  EXPECT_FALSE(s.objects[1].placement.base->held());
+  // One vertex moved by a rounding step: not the same mesh.
+  TetMesh changed = make_box(0.3, 0.2, 0.1, 3, 2, 2);
+  changed.points[4] = std::nextafter(changed.points[4], 1.0);
+  write_gmsh((dir / "block.msh").string(), changed, GmshFormat::v41_ascii);
+  for (std::size_t k : {0u, 1u}) {
+    try {
+      (void)s.mesh(k);
+      FAIL() << "a changed mesh file was taken for object " << k;
+    } catch (const RuntimeFailure& e) {
+      EXPECT_NE(std::string(e.what()).find(k == 0 ? "object 'slab' (block.msh)" : "object 'block' (block.msh)"),
+                std::string::npos)
+          << e.what();
+      EXPECT_NE(std::string(e.what()).find("changed"), std::string::npos) << e.what();
+    }
+  }
+  std::filesystem::remove(dir / "block.msh");
+  EXPECT_THROW((void)s.mesh(2), RuntimeFailure) << "a removed mesh file";
+  std::filesystem::remove_all(dir);
 }
 
 namespace {
@@ -293,31 +378,47 @@ TEST(SceneObjects, CopiesOfAnEntryTakeTheFrequencyOfItsMesh) {
   EXPECT_EQ(one.sim.dt, one.sim.dt_safety * stable_time_step(one)) << "the run's step and stable_step agree";
 
   // Two parts: what each computes alone (a part with zeros elsewhere may refuse the
-  // scene), then each with the other's values added, as MPI_Allreduce would.
-  std::vector<double> mine[2];
+  // scene), then each with the other's values added, as MPI_Allreduce would. Each sum is
+  // one call: the frequencies, then the single-copy objects' boundary triangles
+  // (Scene::describe_objects shared over the parts).
+  std::vector<std::vector<double>> calls[2];
   for (int p : {0, 1}) {
     SceneLimits l = lean();
     l.part = p;
     l.parts = 2;
-    l.sum = [&mine, p](std::vector<double>& v) { mine[p] = v; };
+    l.sum = [&calls, p](std::vector<double>& v) { calls[p].push_back(v); };
     try {
       (void)load_scene_from_string(text, "scene.yaml", l);
     } catch (const InputError&) {
     }
+    ASSERT_EQ(calls[p].size(), 2u) << "part " << p;
   }
-  const auto computed = [&](int p) {
-    return std::count_if(mine[p].begin(), mine[p].end(), [](double w) { return w != 0; });
+  const auto computed = [&](int p, std::size_t call) {
+    return std::count_if(calls[p][call].begin(), calls[p][call].end(), [](double w) { return w != 0; });
   };
-  EXPECT_EQ(computed(0), 2) << "part 0: the box entry and the cube, each once";
-  EXPECT_EQ(computed(1), 1) << "part 1: the ball entry, once";
+  EXPECT_EQ(computed(0, 0), 2) << "part 0: the box entry and the cube, each once";
+  EXPECT_EQ(computed(1, 0), 1) << "part 1: the ball entry, once";
+  ASSERT_EQ(calls[0][1].size(), 2u) << "the floor and the cube have no shape before";
+  EXPECT_EQ(computed(0, 1), 1) << "part 0 counts the floor's boundary";
+  EXPECT_EQ(computed(1, 1), 1) << "part 1 counts the cube's";
   for (int p : {0, 1}) {
     SceneLimits l = lean();
     l.part = p;
     l.parts = 2;
-    l.sum = [&mine, p](std::vector<double>& v) {
-      ASSERT_EQ(v, mine[p]);
-      for (std::size_t k = 0; k < v.size(); ++k) v[k] = mine[0][k] + mine[1][k];
+    std::size_t call = 0;
+    l.sum = [&calls, &call, p](std::vector<double>& v) {
+      ASSERT_LT(call, 2u);
+      ASSERT_EQ(v, calls[p][call]);
+      for (std::size_t k = 0; k < v.size(); ++k) v[k] = calls[0][call][k] + calls[1][call][k];
+      ++call;
     };
-    EXPECT_EQ(load_scene_from_string(text, "scene.yaml", l).sim.dt, one.sim.dt) << "part " << p;
+    const Scene both = load_scene_from_string(text, "scene.yaml", l);
+    EXPECT_EQ(both.sim.dt, one.sim.dt) << "part " << p;
+    for (std::size_t k = 0; k < one.objects.size(); ++k) {
+      EXPECT_EQ(both.objects[k].shape->triangles, extract_surface(one.objects[k].mesh).num_triangles()) << k;
+      EXPECT_EQ(both.objects[k].shape->tets, one.objects[k].mesh.num_tets()) << k;
+      EXPECT_EQ(both.objects[k].shape->box.lo, box_of(one.objects[k].mesh).lo) << k;
+      EXPECT_EQ(both.objects[k].shape->box.hi, box_of(one.objects[k].mesh).hi) << k;
+    }
   }
 }
