@@ -49,16 +49,16 @@ public:
 
   /// The ghost set at the current positions: every other rank's object whose box, grown
   /// by skin/2, overlaps the box of one of this rank's objects grown likewise
-  /// (objects_within_reach; `partition` is not used: the owners are the World's) (the World's
+  /// (objects_within_reach; the owners are the World's) (the World's
   /// ghost part and the Halo rebuilt where it changed, the ghost rows of x and x_prev
   /// filled from their owners). Returns true when this rank's ghost objects changed (on
   /// one rank: when `force`), so that the detector must be rebuilt. Collective.
-  bool rebuild(World& w, const std::vector<int>& partition, bool force);
+  bool rebuild(World& w, bool force);
   /// Before detection: the ghost rows of x_prev take x^t (the last step's final
   /// positions), those of x take x~ from the owners; the set is rebuilt first when some
   /// owned vertex has moved half the skin. Returns what rebuild() returns, or false.
   /// Collective (nothing on one rank).
-  bool refresh_predicted(World& w, const std::vector<int>& partition);
+  bool refresh_predicted(World& w);
   /// Copies the owners' rows of `xyz` (n_local,3) into the ghost rows (nothing on one
   /// rank). Collective.
   void update(double* xyz);

@@ -90,7 +90,8 @@ struct ObjectShape {
 /// file read again, the primitive generated again) on a rank that needs it later, bitwise
 /// the same: a digest of the first mesh is compared with every mesh made again, so that a
 /// mesh file changed or removed during the run is a RuntimeFailure, never another body
-/// (docs/architecture.md, "Who holds which mesh").
+/// (docs/architecture.md, "Who holds which mesh"). Copies of a Scene share their entry
+/// meshes, and what one drops the others make again: like Scene::mesh, not thread-safe.
 class EntryMesh {
 public:
   /// An entry mesh that holds `placed`; `remake` makes it again (none: never let go).

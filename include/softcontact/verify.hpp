@@ -105,8 +105,10 @@ double free_fall_speed(const double* x0, std::size_t n, const Vec3& gravity, dou
 void height_range(const double* x0, std::size_t n, const Vec3& gravity, double& lo, double& hi);
 /// v_ff from the height range of every vertex (height_range; lo > hi: none).
 double free_fall_speed(double lo, double hi, const Vec3& gravity, double v0);
-/// The same for a scene: x0 its initial positions, v0 the largest of the objects' initial
-/// velocities and prescribed motions.
+/// The largest of the scene's objects' initial velocities and prescribed motions [m/s]:
+/// free_fall_speed's v0.
+double initial_speed(const Scene& scene);
+/// The same for a scene: x0 its initial positions, v0 its initial_speed.
 double free_fall_speed(const Scene& scene);
 
 /// What the run's contact response did in the step just checked about a surface vertex

@@ -175,9 +175,8 @@ std::vector<int> objects_within_reach(MPI_Comm comm, const World& w, double skin
 
 // While no owned vertex has moved skin/2 since the set was built, no ghosted pair's boxes
 // can have come to overlap at x~ without being ghosted: the set stays valid.
-bool GhostSet::rebuild(World& w, const std::vector<int>& partition, bool force) {
+bool GhostSet::rebuild(World& w, bool force) {
   if (nranks_ == 1) return force;
-  (void)partition;  // the owners are the World's
   std::int64_t received = 0;
   const std::vector<int> ghosts = objects_within_reach(comm_, w, skin_, &received);
   boxes_received_ += received;
@@ -202,13 +201,13 @@ bool GhostSet::rebuild(World& w, const std::vector<int>& partition, bool force) 
   return local_change;
 }
 
-bool GhostSet::refresh_predicted(World& w, const std::vector<int>& partition) {
+bool GhostSet::refresh_predicted(World& w) {
   if (!halo_) return false;
   std::copy(w.x.begin() + static_cast<std::ptrdiff_t>(3 * w.n_owned), w.x.end(),
             w.x_prev.begin() + static_cast<std::ptrdiff_t>(3 * w.n_owned));
   bool changed = false;
   if (stale(w)) {
-    changed = rebuild(w, partition, false);  // sends x~ in full, new halo or not
+    changed = rebuild(w, false);  // sends x~ in full, new halo or not
     halo_->keep_sent(w.x.data());
   } else if (halo_->has_kept()) {
     // The ghosts hold x^t, as the last update_final left them: only the rows the

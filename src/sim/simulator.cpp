@@ -124,7 +124,7 @@ std::vector<Box> Simulator::current_boxes() { return object_boxes(comm_, scene_,
 
 // The ghost set (ghosts.hpp) at the current positions; the detector follows it.
 void Simulator::rebuild_ghosts(bool force) {
-  if (ghosts_->rebuild(world_, partition_, force) || !core_->has_detector()) follow_ghosts();
+  if (ghosts_->rebuild(world_, force) || !core_->has_detector()) follow_ghosts();
 }
 
 // The World's ghost part changed: a detector for it, the force buffer sized to it.
@@ -309,7 +309,7 @@ void Simulator::unconstrained_motion() {
 void Simulator::refresh_predicted_ghosts() {
   if (!ghosts_->active()) return;
   const double t = MPI_Wtime();
-  if (ghosts_->refresh_predicted(world_, partition_)) follow_ghosts();
+  if (ghosts_->refresh_predicted(world_)) follow_ghosts();
   times_.comm += MPI_Wtime() - t;
 }
 

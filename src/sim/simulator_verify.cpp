@@ -152,10 +152,7 @@ LocalCheck& Simulator::local_check() {
     }
     range[0] = -range[0];
     MPI_Allreduce(MPI_IN_PLACE, range, 2, MPI_DOUBLE, MPI_MAX, comm_);
-    double v0 = 0;
-    auto norm = [](const Vec3& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); };
-    for (const SceneObject& o : scene_.objects) v0 = std::max({v0, norm(o.velocity), norm(o.motion.velocity)});
-    free_fall_speed_ = free_fall_speed(-range[0], range[1], scene_.sim.gravity, v0);
+    free_fall_speed_ = free_fall_speed(-range[0], range[1], scene_.sim.gravity, initial_speed(scene_));
     free_fall_known_ = true;
   }
   local_verify_ = std::move(c);

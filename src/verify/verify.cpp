@@ -536,12 +536,16 @@ void merge_verify_part(VerifyFrame& f, const VerifyFrame& p) {
   for (int k = 0; k < kRecordStatuses; ++k) f.deep_by_record[k] += p.deep_by_record[k];
 }
 
-double free_fall_speed(const Scene& scene) {
+double initial_speed(const Scene& scene) {
   double v0 = 0;
   auto norm = [](const Vec3& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); };
   for (const SceneObject& o : scene.objects) v0 = std::max({v0, norm(o.velocity), norm(o.motion.velocity)});
+  return v0;
+}
+
+double free_fall_speed(const Scene& scene) {
   const std::vector<double> x0 = initial_positions(scene);
-  return free_fall_speed(x0.data(), x0.size() / 3, scene.sim.gravity, v0);
+  return free_fall_speed(x0.data(), x0.size() / 3, scene.sim.gravity, initial_speed(scene));
 }
 
 VerifyFrame verify_frame(const VerifyMesh& m, const double* x, const double* v, const VerifyOptions& opt) {
