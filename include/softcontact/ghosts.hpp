@@ -49,9 +49,9 @@ public:
 
   /// The ghost set at the current positions: every other rank's object whose box, grown
   /// by skin/2, overlaps the box of one of this rank's objects grown likewise
-  /// (objects_within_reach; the owners are the World's) (the World's
-  /// ghost part and the Halo rebuilt where it changed, the ghost rows of x and x_prev
-  /// filled from their owners). Returns true when this rank's ghost objects changed (on
+  /// (objects_within_reach; the owners are the World's), the World's ghost part and the
+  /// Halo rebuilt where it changed, the ghost rows of x and x_prev filled from their
+  /// owners. Returns true when this rank's ghost objects changed (on
   /// one rank: when `force`), so that the detector must be rebuilt. Collective.
   bool rebuild(World& w, bool force);
   /// Before detection: the ghost rows of x_prev take x^t (the last step's final

@@ -23,9 +23,10 @@ inline int comm_size(MPI_Comm comm) {
 
 /// The k-th smallest (from 0) of all ranks' values together, exactly: what
 /// std::nth_element would give on their concatenation, without gathering them. The values
-/// must be non-negative (lengths); a NaN counts as larger than every number. About 64
-/// rounds of one MPI_Allreduce each, every rank counting its own values. Collective;
-/// requires 0 <= k < the total count.
+/// must be non-negative (lengths); a NaN counts as larger than every number. Eight rounds
+/// of one MPI_Allreduce of 256 counts each (radix selection, a byte of the bit pattern a
+/// round), every rank counting its own values still in the running. Collective;
+/// requires 0 <= k < the total count (beyond it: NaN on every rank).
 double kth_smallest(MPI_Comm comm, const std::vector<double>& values, std::int64_t k);
 
 /// Every rank's `mine`, concatenated in rank order, on every rank (MPI_Allgatherv; counts

@@ -1,6 +1,7 @@
-// Exact selection over ranks (mpi_util.hpp): bisection on the bit patterns of
+// Exact selection over ranks (mpi_util.hpp): radix selection on the bit patterns of
 // non-negative doubles, which order like the numbers themselves. And an all-gather of
 // doubles of any count per rank.
+#include <array>
 #include <cstring>
 #include <limits>
 #include <stdexcept>
@@ -20,21 +21,30 @@ std::uint64_t bits_of(double x) {
 }  // namespace
 
 double kth_smallest(MPI_Comm comm, const std::vector<double>& values, std::int64_t k) {
-  std::vector<std::uint64_t> bits(values.size());
-  for (std::size_t i = 0; i < values.size(); ++i) bits[i] = bits_of(values[i]);
-  // The answer is the smallest pattern b with more than k values at or below it.
-  std::uint64_t lo = 0, hi = std::numeric_limits<std::uint64_t>::max();
-  while (lo < hi) {
-    const std::uint64_t mid = lo + (hi - lo) / 2;
-    std::int64_t below = 0;
-    for (std::uint64_t b : bits) below += b <= mid ? 1 : 0;
-    MPI_Allreduce(MPI_IN_PLACE, &below, 1, MPI_INT64_T, MPI_SUM, comm);
-    if (below > k) hi = mid;
-    else lo = mid + 1;
+  // Radix selection on the bit patterns, most significant byte first: each round counts
+  // the candidates left by their next byte (one MPI_Allreduce of 256 counts), finds the
+  // byte of the k-th, and keeps only the candidates with it. Eight rounds; each scans only
+  // what the earlier rounds kept.
+  std::vector<std::uint64_t> left(values.size());
+  for (std::size_t i = 0; i < values.size(); ++i) left[i] = bits_of(values[i]);
+  std::uint64_t answer = 0;
+  std::int64_t rank_in_left = k;  // the k-th overall is the rank_in_left-th of those left
+  for (int shift = 56; shift >= 0; shift -= 8) {
+    std::array<std::int64_t, 256> count{};
+    for (std::uint64_t b : left) ++count[(b >> shift) & 0xff];
+    MPI_Allreduce(MPI_IN_PLACE, count.data(), 256, MPI_INT64_T, MPI_SUM, comm);
+    std::size_t digit = 0;
+    while (digit < 256 && rank_in_left >= count[digit]) rank_in_left -= count[digit++];
+    if (digit == 256) return std::numeric_limits<double>::quiet_NaN();  // k beyond the total: alike on every rank
+    answer |= static_cast<std::uint64_t>(digit) << shift;
+    std::size_t kept = 0;
+    for (std::uint64_t b : left)
+      if (((b >> shift) & 0xff) == digit) left[kept++] = b;
+    left.resize(kept);
   }
-  if (lo == std::numeric_limits<std::uint64_t>::max()) return std::numeric_limits<double>::quiet_NaN();
+  if (answer == std::numeric_limits<std::uint64_t>::max()) return std::numeric_limits<double>::quiet_NaN();
   double x = 0;
-  std::memcpy(&x, &lo, sizeof x);
+  std::memcpy(&x, &answer, sizeof x);
   return x;
 }
 

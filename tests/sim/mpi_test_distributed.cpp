@@ -9,6 +9,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <random>
 #include <filesystem>
@@ -19,7 +20,9 @@
 #include <unistd.h>
 
 #include "softcontact/run.hpp"
+#include "softcontact/mesh_io.hpp"
 #include "softcontact/mpi_util.hpp"
+#include "softcontact/primitives.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/simulator.hpp"
 #include "softcontact/split_forces.hpp"
@@ -171,6 +174,85 @@ TEST(Distributed, PileIsBitwiseIdenticalToOneRankOneThread) {
   if (comm_rank(MPI_COMM_WORLD) == 0) std::cout << "[measured] cross-rank collision records over the run: " << cross << "\n";
 }
 
+namespace {
+
+// Four single-copy entries read from one mesh file (a box of 3 x 3 x 3 cells, each entry
+// moved and rotated by its own transform), 0.8 m apart, two on each of two kinematic
+// plates 0.4 m apart: no box reaches another box or the other plate, so a rank holds the
+// boxes it owns or ghosts (those on a plate it owns) and no other. Loaded as `run`
+// loads it (copies_made_on_demand: collective). Rank 0 writes the file.
+const Scene& file_singles() {
+  static const Scene s = [] {
+    const auto dir = std::filesystem::temp_directory_path() / "softcontact_mpi_file_singles";
+    if (comm_rank(MPI_COMM_WORLD) == 0) {
+      std::filesystem::create_directories(dir);
+      write_gmsh((dir / "box.msh").string(), make_box(0.2, 0.2, 0.2, 3, 3, 3), GmshFormat::v41_binary);
+      std::ofstream(dir / "scene.yaml") << R"(simulation:
+  dt: auto
+  steps: 120
+  output: {directory: out, every: 10}
+materials:
+  - {name: rubber, model: corotational, young: 1.0e5, poisson: 0.3, density: 1000}
+objects:
+  - {name: left, material: rubber, primitive: {type: plate, size: [1.2, 1], thickness: 0.1, cells: [3, 2]}, transform: {translate: [-0.8, 0, -0.05]}, kinematic: true}
+  - {name: a, material: rubber, mesh: box.msh, transform: {translate: [-1.2, 0, 0.004]}}
+  - {name: b, material: rubber, mesh: box.msh, transform: {rotate: [0, 0, 30], translate: [-0.4, 0, 0.004]}}
+  - {name: c, material: rubber, mesh: box.msh, transform: {scale: [1, 1, 0.5], translate: [0.4, 0, 0.004]}}
+  - {name: d, material: rubber, mesh: box.msh, transform: {rotate: {axis: [0, 0, 1], angle: 45}, translate: [1.2, 0, 0.004]}, velocity: [0, 0, -0.5]}
+  - {name: right, material: rubber, primitive: {type: plate, size: [1.2, 1], thickness: 0.1, cells: [3, 2]}, transform: {translate: [0.8, 0, -0.05]}, kinematic: true}
+)";
+    }
+    MPI_Barrier(MPI_COMM_WORLD);
+    return load_scene((dir / "scene.yaml").string(), copies_made_on_demand(MPI_COMM_WORLD));
+  }();
+  return s;
+}
+
+}  // namespace
+
+// Single-copy entries' meshes are dropped where neither owned nor ghosted and read again
+// from their file where a migration brings them (EntryMesh): positions and contact forces
+// are one rank's to the bit, before and after every object moves to the next rank.
+TEST(Distributed, SingleCopyMeshesReadAgainAfterAMigrationAreBitwiseOneRanks) {
+  const Scene& scene = file_singles();
+  const int n = comm_size(MPI_COMM_WORLD);
+  ASSERT_EQ(scene.objects.size(), 6u);
+  for (std::size_t k = 0; k < 6; ++k) ASSERT_EQ(scene.objects[k].placement.kind, Placement::Kind::entry) << k;
+  std::int64_t dropped_then_owned = 0, wrongly_held = 0;
+  std::vector<char> empty_before(scene.objects.size(), 0);
+  expect_identical(
+      1,
+      [&](Simulator& sim, int s) {
+        const World& w = sim.world();
+        for (std::size_t k = 0; k < scene.objects.size(); ++k) {
+          const int obj = static_cast<int>(k);
+          const bool needed = w.owns_object(obj) ||
+                              std::count(w.ghost_objects.begin(), w.ghost_objects.end(), obj) > 0;
+          if (n > 1 && !needed && !scene.objects[k].mesh.points.empty()) ++wrongly_held;
+          if (s == 35) empty_before[k] = scene.objects[k].mesh.points.empty() ? 1 : 0;
+        }
+        if (s == 35 && n > 1) {
+          std::vector<int> next = sim.partition();
+          for (int& r : next) r = (r + 1) % n;
+          sim.migrate(next);
+          for (std::size_t k = 0; k < scene.objects.size(); ++k)
+            if (empty_before[k] && sim.world().owns_object(static_cast<int>(k))) {
+              ++dropped_then_owned;
+              EXPECT_FALSE(scene.objects[k].mesh.points.empty()) << "object " << k << " owned without its mesh";
+            }
+        }
+      },
+      nullptr, scene);
+  MPI_Allreduce(MPI_IN_PLACE, &dropped_then_owned, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+  MPI_Allreduce(MPI_IN_PLACE, &wrongly_held, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_EQ(wrongly_held, 0) << "a rank held a single-copy mesh it neither owned nor ghosted";
+  // On 2+ ranks some object moves to a rank that had dropped it: its file is read again
+  // (or its plate generated again).
+  if (n > 1) EXPECT_GT(dropped_then_owned, 0) << "no mesh was made again: the test proves nothing";
+  if (comm_rank(MPI_COMM_WORLD) == 0)
+    std::cout << "[measured] single-copy meshes made again for their new owner after the migration: " << dropped_then_owned << "\n";
+}
+
 // Each rank builds and holds only the meshes of its own objects and its ghosts (scene
 // loaded as `run` loads it: copies made on demand), and the results are the reference's
 // (a scene that held every mesh, on one rank) to the bit.
@@ -217,32 +299,34 @@ TEST(Distributed, EachRankHoldsOnlyTheMeshesItNeeds) {
   }
 }
 
-// kth_smallest against std::nth_element on all ranks' values gathered: equal, for values
-// with duplicates, zeros of both signs and a spread of magnitudes, and every rank holding a different count.
+// kth_smallest against all ranks' values gathered and sorted (NaN last): equal for every
+// k, for values with duplicates, zeros of both signs, a spread of magnitudes, a few NaNs,
+// and every rank holding a different count; NaN on every rank for k = the total.
 TEST(Distributed, KthSmallestIsNthElementOfAllRanksValues) {
   const int rank = comm_rank(MPI_COMM_WORLD), n = comm_size(MPI_COMM_WORLD);
   std::mt19937_64 gen(static_cast<std::uint64_t>(17 + rank));
   std::vector<double> mine(static_cast<std::size_t>(50 + 31 * rank));
   for (double& v : mine) {
     const auto r = gen();
-    v = r % 7 == 0 ? (r % 2 ? -0.0 : 0.0) : r % 5 == 0 ? 0.25 : std::ldexp(static_cast<double>(r >> 11), -40 - static_cast<int>(r % 20));
+    v = r % 7 == 0 ? (r % 2 ? -0.0 : 0.0) : r % 5 == 0 ? 0.25 : r % 23 == 0 ? std::nan("")
+        : std::ldexp(static_cast<double>(r >> 11), -40 - static_cast<int>(r % 20));
   }
-  int count = static_cast<int>(mine.size());
-  std::vector<int> counts(static_cast<std::size_t>(n)), disp(static_cast<std::size_t>(n));
-  MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
-  int total = 0;
-  for (int r = 0; r < n; ++r) {
-    disp[static_cast<std::size_t>(r)] = total;
-    total += counts[static_cast<std::size_t>(r)];
+  const std::vector<double> all = allgather_doubles(MPI_COMM_WORLD, mine);
+  const auto total = static_cast<std::int64_t>(all.size());
+  std::vector<double> sorted = all;
+  std::sort(sorted.begin(), sorted.end(), [](double a, double b) { return !std::isnan(a) && (std::isnan(b) || a < b); });
+  std::int64_t nans = 0, wrong = 0;
+  for (std::int64_t k = 0; k < total; ++k) {
+    const double got = kth_smallest(MPI_COMM_WORLD, mine, k), want = sorted[static_cast<std::size_t>(k)];
+    nans += std::isnan(want) ? 1 : 0;
+    if (std::isnan(want) ? !std::isnan(got) : got != want) {
+      ++wrong;
+      ADD_FAILURE() << "k = " << k << ": " << got << ", expected " << want;
+    }
   }
-  std::vector<double> all(static_cast<std::size_t>(total));
-  MPI_Allgatherv(mine.data(), count, MPI_DOUBLE, all.data(), counts.data(), disp.data(), MPI_DOUBLE, MPI_COMM_WORLD);
-  for (std::int64_t k : {std::int64_t{0}, std::int64_t{1}, std::int64_t{total / 3}, std::int64_t{total / 2},
-                         std::int64_t{total - 1}}) {
-    std::vector<double> sorted = all;
-    std::nth_element(sorted.begin(), sorted.begin() + k, sorted.end());
-    EXPECT_EQ(kth_smallest(MPI_COMM_WORLD, mine, k), sorted[static_cast<std::size_t>(k)]) << "k = " << k;
-  }
+  EXPECT_EQ(wrong, 0);
+  EXPECT_GT(nans, 0) << "no NaN among the values: the test proves less";
+  EXPECT_TRUE(std::isnan(kth_smallest(MPI_COMM_WORLD, mine, total))) << "k = the total";
 }
 
 // allgather_doubles: every rank's values in rank order on every rank, rank 0 giving none.
