@@ -161,7 +161,9 @@ void Scene::describe_objects() const {
 
 void Scene::describe_objects(int part, int parts, const std::function<void(std::vector<double>&)>& sum) const {
   if (parts <= 1 || !sum) return describe_objects();
-  std::vector<std::size_t> todo;  // the same list on every part: the scene is
+  // The objects without a shape yet. Every part holds the same scene, so every part
+  // builds the same list, and the k-th of it is counted on part k % parts.
+  std::vector<std::size_t> todo;
   for (std::size_t k = 0; k < objects.size(); ++k)
     if (!objects[k].shape && !objects[k].surface) todo.push_back(k);
   std::vector<double> triangles(todo.size(), 0.0);
