@@ -268,19 +268,42 @@ struct VerifyThresholds {
 };
 
 /// Options of `softcontact verify OUTPUT_DIR`.
+/// How several processes share the frames of verify_output (the command line gives one
+/// over MPI; this layer knows no MPI). Process p checks the selected frames p, p + size,
+/// p + 2 size, ...; process 0 gathers the results and reports them in frame order.
+class VerifyFrameShare {
+public:
+  virtual ~VerifyFrameShare() = default;
+  virtual int rank() const = 0;
+  virtual int size() const = 0;
+  /// Collective. On process 0 every process's bytes, process after process; elsewhere
+  /// empty.
+  virtual std::vector<char> gather(const std::vector<char>& mine) const = 0;
+  /// Collective. The message of the lowest process with a non-empty one, on every
+  /// process; empty when none has one.
+  virtual std::string first_error(const std::string& mine) const = 0;
+};
+
 struct VerifyOutputOptions {
   std::string frames = "all";          ///< all | last | first | comma list of N and A:B[:STEP], negative from the end
   VerifyThresholds thresholds;
   std::string json;                    ///< the JSON summary ("" : OUTPUT_DIR/verify.json)
   double skip_before = 0;              ///< frames at earlier times are not checked [s]
   bool skip = false;                   ///< skip_before applies
+  /// Several processes share the frames (null, or one process: this one checks them all,
+  /// printing each line as its frame is done).
+  const VerifyFrameShare* share = nullptr;
 };
 
 /// Checks the frames of a run's output directory (mesh.h5, frames/NNNNNN.h5, scene.yaml
 /// for gravity and initial velocities), prints one line per frame and a summary to `out`
 /// and writes the JSON summary. Returns 0 when every limit holds, 1 otherwise. Throws
 /// InputError naming the file for a missing directory or file, or one HDF5 cannot read.
-/// One process; no MPI.
+/// With `opt.share` of several processes, every process calls it: each reads the mesh
+/// and checks its frames, process 0 prints, writes the JSON and returns the status (the
+/// others return 0), and an InputError on any process is thrown on every process (the
+/// lowest process's message). Each frame's check is the same on any process and thread
+/// count, so the report is the one process's to the bit (but the seconds it took).
 int verify_output(const std::string& dir, const VerifyOutputOptions& opt, std::ostream& out, std::ostream& err);
 
 }  // namespace softcontact

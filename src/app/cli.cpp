@@ -14,6 +14,7 @@
 #include <map>
 #include <optional>
 #include <sstream>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -136,6 +137,8 @@ const char* kVerifyHelp =
     "body away from their neighbours (self-contact), inverted tets, and the fastest\n"
     "vertex against the free-fall speed v_ff = sqrt(v0^2 + 2 |g| H) of the scene. Depths are\n"
     "in median tet edge lengths h. One line per frame, a summary, and a JSON file.\n"
+    "Under mpirun the ranks share the frames (each reads the mesh and checks every N-th\n"
+    "frame; rank 0 reports): the same report as one process, in less time.\n"
     "\n"
     "  --frames SPEC            all (default), first, last, or a comma list of frame numbers\n"
     "                           and ranges A:B[:STEP] (B included; negative: from the end)\n"
@@ -494,7 +497,48 @@ double parse_limit(const std::string& opt, const std::string& v) {
   return parse_number(opt, v, "verify", [](double x) { return x >= 0; }, "a non-negative number");
 }
 
-// Runs on rank 0 alone; the exit status (or the input error) goes to every rank.
+// The frames of verify_output shared by the ranks of `comm` (VerifyFrameShare).
+class MpiFrameShare final : public VerifyFrameShare {
+public:
+  explicit MpiFrameShare(MPI_Comm comm) : comm_(comm) {}
+  int rank() const override { return comm_rank(comm_); }
+  int size() const override { return comm_size(comm_); }
+  std::vector<char> gather(const std::vector<char>& mine) const override {
+    if (mine.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+      throw RuntimeFailure("verify: a rank's frame checks exceed 2 GiB");
+    const int count = static_cast<int>(mine.size()), ranks = size();
+    std::vector<int> counts(rank() == 0 ? static_cast<std::size_t>(ranks) : 0), offsets(counts.size());
+    MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, comm_);
+    std::size_t total = 0;
+    for (std::size_t p = 0; p < counts.size(); ++p) {
+      if (total > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+        throw RuntimeFailure("verify: the frame checks exceed 2 GiB");
+      offsets[p] = static_cast<int>(total);
+      total += static_cast<std::size_t>(counts[p]);
+    }
+    std::vector<char> all(total);
+    MPI_Gatherv(mine.data(), count, MPI_BYTE, all.data(), counts.data(), offsets.data(), MPI_BYTE, 0, comm_);
+    return all;
+  }
+  std::string first_error(const std::string& mine) const override {
+    const int ranks = size();
+    int me = mine.empty() ? ranks : rank(), first = ranks;
+    MPI_Allreduce(&me, &first, 1, MPI_INT, MPI_MIN, comm_);
+    if (first == ranks) return {};
+    std::string message = rank() == first ? mine : std::string();
+    int length = static_cast<int>(message.size());
+    MPI_Bcast(&length, 1, MPI_INT, first, comm_);
+    message.resize(static_cast<std::size_t>(length));
+    MPI_Bcast(message.data(), length, MPI_CHAR, first, comm_);
+    return message;
+  }
+
+private:
+  MPI_Comm comm_;
+};
+
+// Every rank checks its share of the frames (VerifyFrameShare), rank 0 reports; rank 0's
+// exit status (or the input error) goes to every rank.
 int cmd_verify(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) {
   if (a.positional.empty()) usage_error("'verify' needs an output directory", "verify");
   if (a.positional.size() > 1) usage_error("unexpected argument '" + a.positional[1] + "'", "verify");
@@ -518,16 +562,15 @@ int cmd_verify(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& er
     if (v->empty()) usage_error("--json expects a file name", "verify");
     opt.json = *v;
   }
-  const int rank = comm_rank(comm);
+  const MpiFrameShare share(comm);
+  opt.share = &share;
   int code = 0;
   std::string message;
-  if (rank == 0) {
-    try {
-      code = verify_output(a.positional[0], opt, out, err);
-    } catch (const InputError& e) {
-      message = e.what();
-      code = kExitInputError;
-    }
+  try {
+    code = verify_output(a.positional[0], opt, out, err);
+  } catch (const InputError& e) {
+    message = e.what();
+    code = kExitInputError;
   }
   MPI_Bcast(&code, 1, MPI_INT, 0, comm);
   int length = static_cast<int>(message.size());

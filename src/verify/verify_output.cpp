@@ -1,16 +1,19 @@
 // softcontact verify OUTPUT_DIR: reads a run's output (docs/output-format.md) with the
-// HDF5 C API, one process, and checks every selected frame (verify.hpp).
+// HDF5 C API and checks every selected frame (verify.hpp): in one process, or with the
+// frames shared by several (VerifyFrameShare; the command line gives one over MPI).
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <limits>
 #include <sstream>
+#include <type_traits>
 
 #include "../io/h5_util.hpp"
 #include "softcontact/error.hpp"
@@ -264,34 +267,92 @@ std::string json_string(const std::string& text) {
   return s + '"';
 }
 
+// One selected frame's check, as process 0 reports it (trivially copyable: gathered as
+// bytes from the processes sharing the frames).
+struct CheckedFrame {
+  std::int64_t pick = 0;  // index into the selected frames
+  double time = 0;        // the frame's time [s]
+  int checked = 0;        // 0: before --skip-frames-before
+  VerifyFrame result;
+};
+static_assert(std::is_trivially_copyable_v<CheckedFrame>, "CheckedFrame is gathered as bytes");
+
 }  // namespace
 
 int verify_output(const std::string& dir_arg, const VerifyOutputOptions& opt, std::ostream& out, std::ostream& err) {
+  const int rank = opt.share ? opt.share->rank() : 0, size = opt.share ? opt.share->size() : 1;
   const fs::path dir(dir_arg);
-  std::error_code ec;
-  if (!fs::exists(dir, ec)) throw InputError(dir_arg, 0, "output directory does not exist");
-  if (!fs::is_directory(dir, ec)) throw InputError(dir_arg, 0, "is not a directory");
   const auto t0 = std::chrono::steady_clock::now();
-  const MeshData md = read_mesh(dir / "mesh.h5");
-  const VerifyMesh& mesh = md.mesh;
-  const gid_t n = static_cast<gid_t>(mesh.num_vertices());
-  const std::vector<FrameFile> frames = list_frames(dir);
-  std::vector<std::size_t> pick = select_frames(opt.frames, frames);
-
+  MeshData md;
+  std::vector<FrameFile> frames;
+  std::vector<std::size_t> pick;
   Vec3 gravity{};
   double v0 = 0;
-  scene_motion(dir / "scene.yaml", gravity, v0, err);
-  {
+  VerifyOptions vo;
+  auto set_up = [&] {
+    std::error_code ec;
+    if (!fs::exists(dir, ec)) throw InputError(dir_arg, 0, "output directory does not exist");
+    if (!fs::is_directory(dir, ec)) throw InputError(dir_arg, 0, "is not a directory");
+    md = read_mesh(dir / "mesh.h5");
+    frames = list_frames(dir);
+    pick = select_frames(opt.frames, frames);
+    std::ostringstream quiet;  // the warnings once, from process 0
+    scene_motion(dir / "scene.yaml", gravity, v0, rank == 0 ? err : quiet);
     // The first frame's velocities are the initial ones.
+    const gid_t n = static_cast<gid_t>(md.mesh.num_vertices());
     const H5File f0(frames.front().path);
     const std::vector<double> v = f0.read<double>("velocities", 3, n);
     for (std::size_t i = 0; i < static_cast<std::size_t>(n); ++i) {
       const double s = std::sqrt(v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2]);
       if (std::isfinite(s)) v0 = std::max(v0, s);
     }
+    vo.free_fall_speed = free_fall_speed(md.rest.data(), static_cast<std::size_t>(n), gravity, v0);
+  };
+  // The check of selected frame j.
+  auto check = [&](std::size_t j) {
+    CheckedFrame c;
+    c.pick = static_cast<std::int64_t>(j);
+    const H5File f(frames[pick[j]].path);
+    c.time = f.attribute<double>("time");
+    if (opt.skip && c.time < opt.skip_before) return c;
+    const gid_t n = static_cast<gid_t>(md.mesh.num_vertices());
+    const std::vector<double> x = f.read<double>("positions", 3, n);
+    const std::vector<double> v = f.read<double>("velocities", 3, n);
+    c.result = verify_frame(md.mesh, x.data(), v.data(), vo);
+    c.result.step = f.attribute<std::int64_t>("step");
+    c.result.time = c.time;
+    c.checked = 1;
+    return c;
+  };
+
+  // Several processes: each sets up and checks its frames; an input error anywhere stops
+  // every process with the lowest one's message; process 0 gathers the checks.
+  std::vector<CheckedFrame> gathered;
+  if (size > 1) {
+    std::vector<CheckedFrame> mine;
+    std::string error;
+    try {
+      set_up();
+      for (std::size_t j = static_cast<std::size_t>(rank); j < pick.size(); j += static_cast<std::size_t>(size))
+        mine.push_back(check(j));
+    } catch (const InputError& e) {
+      error = e.what();
+    }
+    error = opt.share->first_error(error);
+    if (!error.empty()) throw InputError(error);
+    std::vector<char> bytes(mine.size() * sizeof(CheckedFrame));
+    if (!mine.empty()) std::memcpy(bytes.data(), mine.data(), bytes.size());
+    bytes = opt.share->gather(bytes);
+    if (rank != 0) return 0;
+    gathered.resize(bytes.size() / sizeof(CheckedFrame));
+    if (!gathered.empty()) std::memcpy(gathered.data(), bytes.data(), gathered.size() * sizeof(CheckedFrame));
+    std::sort(gathered.begin(), gathered.end(),
+              [](const CheckedFrame& x, const CheckedFrame& y) { return x.pick < y.pick; });
+  } else {
+    set_up();
   }
-  VerifyOptions vo;
-  vo.free_fall_speed = free_fall_speed(md.rest.data(), static_cast<std::size_t>(n), gravity, v0);
+  const VerifyMesh& mesh = md.mesh;
+  const gid_t n = static_cast<gid_t>(mesh.num_vertices());
   const VerifyThresholds& lim = opt.thresholds;
   const double h = mesh.median_edge;
 
@@ -306,17 +367,13 @@ int verify_output(const std::string& dir_arg, const VerifyOutputOptions& opt, st
   VerifyFrame last;
   std::int64_t last_frame = -1;
   double latest = 0;  // time of the last selected frame
-  for (std::size_t idx : pick) {
-    const FrameFile& ff = frames[idx];
-    const H5File f(ff.path);
-    const double time = f.attribute<double>("time");
-    latest = time;
-    if (opt.skip && time < opt.skip_before) continue;
-    const std::vector<double> x = f.read<double>("positions", 3, n);
-    const std::vector<double> v = f.read<double>("velocities", 3, n);
-    VerifyFrame r = verify_frame(mesh, x.data(), v.data(), vo);
-    r.step = f.attribute<std::int64_t>("step");
-    r.time = time;
+  for (std::size_t j = 0; j < pick.size(); ++j) {
+    // One process: each frame checked here and its line printed as it is done.
+    const CheckedFrame c = size > 1 ? gathered.at(j) : check(j);
+    const FrameFile& ff = frames[pick[j]];
+    latest = c.time;
+    if (!c.checked) continue;
+    const VerifyFrame& r = c.result;
     worst.add(r);
     char line[300];
     std::snprintf(line, sizeof line, "%6lld %9lld %11.5g %8lld %8.4f %8.4f %7lld %8.4f %7lld %7lld %8.4f %9lld %7.3f %8lld %8.4f %7lld %8.4f\n",
@@ -368,7 +425,9 @@ int verify_output(const std::string& dir_arg, const VerifyOutputOptions& opt, st
 
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const bool pass = violations.empty();
-  out << "summary: " << worst.checks << " frame(s) checked in " << fmt("%.3g", seconds) << " s\n";
+  out << "summary: " << worst.checks << " frame(s) checked in " << fmt("%.3g", seconds) << " s";
+  if (size > 1) out << " by " << size << " processes";
+  out << "\n";
   if (worst.checks > 0) {
     const VerifyFrame& d = worst.deepest;
     out << "  deepest surface vertex: " << fmt("%.4g", worst.surface_depth.value) << " h";

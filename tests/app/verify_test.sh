@@ -57,7 +57,21 @@ expect 2 "no frame files" -- "$exe" verify broken
 cp other/frames/000000.h5 broken/frames/000000.h5
 expect 2 "broken/frames/000000.h5: dataset 'velocities' should have 104 rows of 3" -- "$exe" verify broken
 
-# under MPI: rank 0 checks, every rank exits with its status
+# under MPI the ranks share the frames (rank 0 reports): the same lines and JSON as one
+# process, every rank exits with rank 0's status
+"$exe" verify run1 --json one.json > one.txt 2>&1
+"$mpiexec" --oversubscribe -n 3 "$exe" verify run1 --json three.json > three.txt 2>&1
+cmp -s one.json three.json && ok || bad "verify on 3 ranks: three.json differs from one process's one.json"
+[ "$(grep -cE '^ +[0-9]+ +[0-9]+ ' three.txt)" = 11 ] && ok || bad "verify on 3 ranks: expected 11 frame lines"
+diff <(grep -vE '^(summary|json):' one.txt) <(grep -vE '^(summary|json):' three.txt) > /dev/null && ok ||
+  bad "verify on 3 ranks: the report differs from one process's"
+grep -qE '^summary: 11 frame\(s\) checked in [0-9.e+-]+ s by 3 processes' three.txt && ok || bad "verify on 3 ranks: summary line"
+# a frame that rank 1 of 3 reads is damaged: exit 2 naming it, one message, no hang
+cp -r run1 broken3
+head -c 1000 run1/frames/000001.h5 > broken3/frames/000001.h5
+expect 2 "broken3/frames/000001.h5: not a readable HDF5 file" -- "$mpiexec" --oversubscribe -n 3 "$exe" verify broken3
+[ "$("$mpiexec" --oversubscribe -n 3 "$exe" verify broken3 2>&1 | grep -c 'softcontact: error')" = 1 ] && ok ||
+  bad "verify on 3 ranks with a damaged frame: expected one error message"
 expect 0 'PASS' -- "$mpiexec" --oversubscribe -n 2 "$exe" verify run1 --frames last
 expect 1 'FAIL' -- "$mpiexec" --oversubscribe -n 2 "$exe" verify run1 --max-speed-ratio 0.1
 expect 2 "nothing: output directory does not exist" -- "$mpiexec" --oversubscribe -n 2 "$exe" verify nothing
