@@ -52,10 +52,13 @@ struct CheckpointInfo {
 };
 
 /// A hash of everything in a loaded scene that results depend on: meshes (positions and
-/// tets), materials, friction, fixed vertices, motions and the simulation settings of
-/// the step (dt, gravity, integrator, self-collisions). Restart refuses a scene whose
-/// fingerprint differs (a mesh file edited since, for example).
+/// tets, through each object's mesh_digest), materials, friction, fixed vertices, motions
+/// and the simulation settings of the step (dt, gravity, integrator, self-collisions).
+/// Restart refuses a scene whose fingerprint differs (a mesh file edited since, for
+/// example). This one digests every object's mesh here.
 std::uint64_t scene_fingerprint(const Scene& scene);
+/// The same from the objects' digests (Scene::object_digests, which ranks can share).
+std::uint64_t scene_fingerprint(const Scene& scene, const std::vector<std::uint64_t>& digests);
 
 /// Writes `path` (via path + ".tmp", fsync and rename): the owned rows of `state` (global
 /// rows from w's vertex ids) and `info`, whose step, anchor step, rank count and vertex

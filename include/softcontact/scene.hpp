@@ -85,6 +85,10 @@ struct ObjectShape {
   Box box = Box::none();       ///< at its initial positions; a NaN coordinate replaces the bound (add_point in box.hpp)
 };
 
+/// Which mesh it is, to the bit: FNV-1a over the counts, points and tets, a 64-bit word
+/// at a time.
+std::uint64_t mesh_digest(const TetMesh& mesh);
+
 /// An entry's mesh as its transform placed it (scaled, rotated, moved), shared by the
 /// objects made from it. It is held, or let go and made again from its source (the mesh
 /// file read again, the primitive generated again) on a rank that needs it later, bitwise
@@ -107,6 +111,8 @@ public:
   /// Lets go of the mesh when it can be made again. Returns the bytes let go.
   std::size_t drop() const;
   const std::string& source() const { return source_; }
+  /// mesh_digest of the placed mesh.
+  std::uint64_t digest() const { return digest_; }
 
 private:
   EntryMesh(std::string source, const TetMesh& placed, std::function<TetMesh()> remake);
@@ -267,6 +273,12 @@ struct Scene {
   /// it again (shapes are computed first), and the entry meshes (Placement::base) that no
   /// kept copy is placed from. Returns the bytes of mesh and surface dropped.
   std::size_t drop_meshes(const std::vector<char>& keep) const;
+  /// Every object's mesh_digest, object k computed by part k % parts (a dropped
+  /// single-copy mesh's from its entry's digest, without making it; a copy placed for it) and `sum`
+  /// adds the parts' (null or one part: all here). The same on any number of parts.
+  /// Collective over the parts.
+  std::vector<std::uint64_t> object_digests(int part = 0, int parts = 1,
+                                            const std::function<void(std::vector<double>&)>& sum = {}) const;
 };
 
 /// Bounds on the size of a scene, checked before a primitive is generated or an entry is

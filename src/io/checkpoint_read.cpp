@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <stdexcept>
 
 #include "h5_util.hpp"
 #include "softcontact/contact.hpp"
@@ -35,7 +36,7 @@ private:
 };
 
 /// scene_fingerprint with the time step `dt` in place of the scene's.
-std::uint64_t fingerprint_with_dt(const Scene& scene, double dt) {
+std::uint64_t fingerprint_with_dt(const Scene& scene, double dt, const std::vector<std::uint64_t>& digests) {
   Fingerprint f;
   const Simulation& s = scene.sim;
   f.value(dt);
@@ -56,14 +57,15 @@ std::uint64_t fingerprint_with_dt(const Scene& scene, double dt) {
       f.value(fr.mu_kinetic);
     }
   f.value(scene.objects.size());
+  if (digests.size() != scene.objects.size())
+    throw std::logic_error("scene_fingerprint: " + std::to_string(digests.size()) + " digests for " +
+                           std::to_string(scene.objects.size()) + " objects");
   for (std::size_t k = 0; k < scene.objects.size(); ++k) {
     const SceneObject& o = scene.objects[k];
-    const Scene::MeshView mesh = scene.view_mesh(k);
     f.value(o.material);
     f.value(o.kinematic);
     f.value(o.velocity);
-    f.vector(mesh.get().points);
-    f.vector(mesh.get().tets);
+    f.value(digests[k]);  // the mesh: its points and tets (mesh_digest)
     f.value(o.fixed.size());
     for (const Box& b : o.fixed) {
       f.value(b.lo);
@@ -78,7 +80,11 @@ std::uint64_t fingerprint_with_dt(const Scene& scene, double dt) {
 
 }  // namespace
 
-std::uint64_t scene_fingerprint(const Scene& scene) { return fingerprint_with_dt(scene, scene.sim.dt); }
+std::uint64_t scene_fingerprint(const Scene& scene, const std::vector<std::uint64_t>& digests) {
+  return fingerprint_with_dt(scene, scene.sim.dt, digests);
+}
+
+std::uint64_t scene_fingerprint(const Scene& scene) { return scene_fingerprint(scene, scene.object_digests()); }
 
 namespace checkpoint {
 
@@ -182,11 +188,12 @@ CheckpointInfo read_run_file(const std::string& path) {
   }
 }
 
-void check_against_scene(const CheckpointInfo& info, const Scene& scene, const std::string& path) {
-  if (scene_fingerprint(scene) != info.fingerprint) {
+void check_against_scene(const CheckpointInfo& info, const Scene& scene, const std::string& path,
+                         const std::vector<std::uint64_t>& digests) {
+  if (scene_fingerprint(scene, digests) != info.fingerprint) {
     // Everything but the step the same: the stable step of 'dt: auto' is computed
     // differently by this build than by the one that wrote the checkpoint.
-    if (info.dt != scene.sim.dt && fingerprint_with_dt(scene, info.dt) == info.fingerprint) {
+    if (info.dt != scene.sim.dt && fingerprint_with_dt(scene, info.dt, digests) == info.fingerprint) {
       std::ostringstream s;
       s.precision(17);
       s << "the scene it continues ('" << info.scene_path << "') is unchanged, but its time step now comes out as dt = "
@@ -198,7 +205,9 @@ void check_against_scene(const CheckpointInfo& info, const Scene& scene, const s
     throw InputError(path, 0,
                      "the scene it continues ('" + info.scene_path +
                          "', as stored in the checkpoint) now reads differently: a mesh file it uses has changed or "
-                         "moved since the checkpoint was written, so the run cannot continue bitwise");
+                         "moved since the checkpoint was written (or the checkpoint was written by a softcontact "
+                         "from before 2026-11-28, whose fingerprint hashed the meshes differently), so the run "
+                         "cannot continue bitwise");
   }
   // The fingerprint covers both counts; a damaged file may still disagree with itself.
   const auto objects = scene.objects.size();

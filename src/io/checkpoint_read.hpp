@@ -29,9 +29,10 @@ CheckpointInfo read_run(hid_t file, const std::string& path);
 CheckpointInfo read_run_file(const std::string& path);
 
 /// Checks a checkpoint's run description against the scene loaded from its stored text:
-/// the fingerprint, the number of objects (partition, boxes) and of vertices. Throws
-/// InputError naming `path`.
-void check_against_scene(const CheckpointInfo& info, const Scene& scene, const std::string& path);
+/// the fingerprint (from the objects' `digests`, Scene::object_digests), the number of
+/// objects (partition, boxes) and of vertices. Throws InputError naming `path`.
+void check_against_scene(const CheckpointInfo& info, const Scene& scene, const std::string& path,
+                         const std::vector<std::uint64_t>& digests);
 
 /// The per-vertex state of a checkpoint, rows packed in the order of the runs read
 /// (owned-run order on a rank: local order).

@@ -39,8 +39,16 @@ FrameWriter::FrameWriter(MPI_Comm comm, const std::string& h5_path, const std::s
     std::filesystem::create_directories(std::filesystem::path(dir_) / kFramesDir, ec);
   }
   const std::string mesh_path = (std::filesystem::path(dir_) / kMeshFile).string(), tmp = mesh_path + ".tmp";
-  const hid_t file = h5::create_parallel(comm_, tmp, "the output file");
-  const hid_t mesh = check_id(H5Gcreate2(file, "/mesh", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), "create /mesh");
+  const hid_t file = h5::create_parallel(comm_, tmp, "the output file", true);
+  // The object table below is one text attribute of about 20 bytes per object: past 64
+  // KiB (some 3,000 objects) HDF5 cannot keep it in the group's header (compact storage),
+  // and creating it failed. Dense attribute storage (format of HDF5 1.8 and later, asked
+  // for when the file is created) has no such limit.
+  const hid_t gcpl = check_id(H5Pcreate(H5P_GROUP_CREATE), "create a group creation property list");
+  check(H5Pset_attr_phase_change(gcpl, 0, 0), "ask for dense attribute storage");
+  const hid_t mesh = H5Gcreate2(file, "/mesh", H5P_DEFAULT, gcpl, H5P_DEFAULT);
+  H5Pclose(gcpl);
+  check_id(mesh, "create /mesh");
 
   // Owned rows in global order; connectivity in global vertex ids.
   vertex_runs_ = owned_vertex_runs(w);

@@ -204,11 +204,13 @@ hid_t mpio_access(MPI_Comm comm) {
   return fapl;
 }
 
-hid_t create_parallel(MPI_Comm comm, const std::string& path, const std::string& what) {
+hid_t create_parallel(MPI_Comm comm, const std::string& path, const std::string& what, bool large_attributes) {
   hid_t file = -1;
   {
     const QuietErrors quiet;
     const hid_t fapl = mpio_access(comm);
+    // Object headers of format 2 (HDF5 1.8), which can keep attributes densely.
+    if (large_attributes) H5Pset_libver_bounds(fapl, H5F_LIBVER_V18, H5F_LIBVER_LATEST);
     file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
     H5Pclose(fapl);
   }

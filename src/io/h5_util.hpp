@@ -70,7 +70,10 @@ hid_t mpio_access(MPI_Comm comm);
 /// Creates (truncates) `path` for parallel writing on every rank of `comm`. When every
 /// rank fails, every rank throws the same CollectiveFailure "cannot create WHAT 'path'";
 /// when some do, those throw it as a RuntimeFailure of their own. Collective.
-hid_t create_parallel(MPI_Comm comm, const std::string& path, const std::string& what);
+/// `large_attributes`: the file format of HDF5 1.8 and later, whose object headers can
+/// keep attributes past 64 KiB in dense storage (a group created with attribute phase
+/// change 0, 0).
+hid_t create_parallel(MPI_Comm comm, const std::string& path, const std::string& what, bool large_attributes = false);
 
 /// Switches HDF5's automatic error printing off for the life of the object (files that
 /// may be damaged are probed; their failures are ours to report).

@@ -13,8 +13,6 @@
 
 namespace softcontact {
 
-namespace {
-// FNV-1a over the mesh's bytes, a word at a time: which mesh it is, to the bit.
 std::uint64_t mesh_digest(const TetMesh& m) {
   std::uint64_t h = 14695981039346656037ull;
   auto add = [&h](const void* data, std::size_t bytes) {
@@ -34,6 +32,7 @@ std::uint64_t mesh_digest(const TetMesh& m) {
   return h;
 }
 
+namespace {
 std::size_t mesh_bytes(const TetMesh& m) {
   return m.points.capacity() * sizeof(double) + m.tets.capacity() * sizeof(index_t);
 }
@@ -192,6 +191,30 @@ std::size_t Scene::drop_meshes(const std::vector<char>& keep) const {
   for (const auto& [base, needed] : bases)
     if (!needed) bytes += base->drop();
   return bytes;
+}
+
+std::vector<std::uint64_t> Scene::object_digests(int part, int parts,
+                                                 const std::function<void(std::vector<double>&)>& sum) const {
+  if (parts < 1 || !sum) part = 0, parts = 1;
+  const std::size_t n = objects.size();
+  // Two exact integers below 2^32 per object, written by one part and zero on the others,
+  // so the sum over the parts is exact.
+  std::vector<double> halves(2 * n, 0.0);
+  for (std::size_t k = static_cast<std::size_t>(part); k < n; k += static_cast<std::size_t>(parts)) {
+    // A dropped single-copy mesh by its entry's digest (what it would be made again as:
+    // EntryMesh checks that), any other from the mesh held or placed here.
+    const SceneObject& o = objects[k];
+    const Placement& p = o.placement;
+    const bool dropped_single = o.mesh.points.empty() && p.kind == Placement::Kind::entry && p.base;
+    const std::uint64_t d = dropped_single ? p.base->digest() : mesh_digest(view_mesh(k).get());
+    halves[2 * k] = static_cast<double>(d >> 32);
+    halves[2 * k + 1] = static_cast<double>(d & 0xffffffffull);
+  }
+  if (parts > 1) sum(halves);
+  std::vector<std::uint64_t> digests(n);
+  for (std::size_t k = 0; k < n; ++k)
+    digests[k] = (static_cast<std::uint64_t>(halves[2 * k]) << 32) | static_cast<std::uint64_t>(halves[2 * k + 1]);
+  return digests;
 }
 
 }  // namespace softcontact

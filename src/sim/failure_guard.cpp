@@ -19,19 +19,19 @@ double norm3(const Vec3& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] 
 double total_energy(const StepDiagnostics& d) { return d.kinetic_energy + d.elastic_energy + d.potential_energy; }
 }  // namespace
 
-GuardScales guard_scales(const Scene& scene) {
-  GuardScales g;
-  double c = 0, v = 0, mass = 0, motion_work = 0;
-  bool motion = false;
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+GuardScales guard_scales(const Scene& scene, int part, int parts, const std::function<void(std::vector<double>&)>& sum) {
+  if (parts < 1 || !sum) part = 0, parts = 1;
   const double gn = norm3(scene.sim.gravity);
-  for (std::size_t k = 0; k < scene.objects.size(); ++k) {
-    const SceneObject& o = scene.objects[k];
+  // The mesh passes, object k on part k % parts: its lowest and highest point along
+  // gravity, its volume and tets. Written by one part, zero on the others: the sum over
+  // the parts is exact, and what follows is the one-part loop in object order.
+  constexpr std::size_t kCols = 4;
+  const std::size_t n = scene.objects.size();
+  std::vector<double> per(kCols * n, 0.0);
+  for (std::size_t k = static_cast<std::size_t>(part); k < n; k += static_cast<std::size_t>(parts)) {
     const Scene::MeshView view = scene.view_mesh(k);  // not kept where this rank dropped it
     const TetMesh& mesh = view.get();
-    const Material& m = scene.materials[static_cast<std::size_t>(o.material)];
-    v = std::max({v, norm3(o.velocity), norm3(o.motion.velocity)});
-    motion = motion || o.motion.moves();
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
     for (std::size_t i = 0; i < mesh.num_vertices(); ++i) {
       // Height along gravity: how far anything can fall.
       double h = 0;
@@ -39,12 +39,29 @@ GuardScales guard_scales(const Scene& scene) {
       lo = std::min(lo, h);
       hi = std::max(hi, h);
     }
+    per[kCols * k] = lo;
+    per[kCols * k + 1] = hi;
+    per[kCols * k + 2] = scene.objects[k].kinematic ? 0.0 : tet_volume_sum(mesh);
+    per[kCols * k + 3] = static_cast<double>(mesh.num_tets());
+  }
+  if (parts > 1) sum(per);
+  GuardScales g;
+  double c = 0, v = 0, mass = 0, motion_work = 0;
+  bool motion = false;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (std::size_t k = 0; k < n; ++k) {
+    const SceneObject& o = scene.objects[k];
+    const Material& m = scene.materials[static_cast<std::size_t>(o.material)];
+    v = std::max({v, norm3(o.velocity), norm3(o.motion.velocity)});
+    motion = motion || o.motion.moves();
+    lo = std::min(lo, per[kCols * k]);
+    hi = std::max(hi, per[kCols * k + 1]);
     if (o.kinematic) continue;
     c = std::max(c, m.wave_speed());
-    const double volume = tet_volume_sum(mesh);
+    const double volume = per[kCols * k + 2];
     mass += m.density * volume;
     motion_work += m.young * volume;
-    g.movable_tets += static_cast<std::int64_t>(mesh.num_tets());
+    g.movable_tets += static_cast<std::int64_t>(per[kCols * k + 3]);
   }
   const double height = hi > lo ? hi - lo : 0;
   g.max_speed = scene.sim.max_speed > 0 ? scene.sim.max_speed

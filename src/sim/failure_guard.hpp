@@ -6,7 +6,9 @@
 // the vertices and the collective "where is it" searches are the Simulator's
 // (health.cpp); run_scene (run.cpp) calls both.
 #include <cstdint>
+#include <functional>
 #include <string>
+#include <vector>
 
 #include "softcontact/diagnostics.hpp"
 #include "softcontact/scene.hpp"
@@ -22,7 +24,11 @@ struct GuardScales {
   double release = 0;        ///< energy the scene can release besides its initial energy [J]
   std::int64_t movable_tets = 0;
 };
-GuardScales guard_scales(const Scene& scene);
+/// The mesh passes (heights along gravity, volumes) of object k by part k % parts, `sum`
+/// adding the parts' (SceneLimits::sum; null or one part: all here): the same scales, to
+/// the bit, on any number of parts. Collective over the parts.
+GuardScales guard_scales(const Scene& scene, int part = 0, int parts = 1,
+                         const std::function<void(std::vector<double>&)>& sum = {});
 
 class FailureGuard {
 public:

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <csignal>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <cmath>
 #include <cstdio>
@@ -219,14 +220,21 @@ void report_in_run_checks(const Scene& scene, const VerifyMaxima& verify_max, st
 // `run` and `bench` hold only the meshes of the objects each rank owns or ghosts: copies
 // of multi-copy entries are made when needed (docs/architecture.md, "Who holds which mesh").
 // The ranks share the stable step's per-object frequencies (SceneLimits::sum).
+namespace {
+// Adds a vector over the ranks of comm (the `sum` of the passes shared over ranks).
+std::function<void(std::vector<double>&)> sum_over(MPI_Comm comm) {
+  return [comm](std::vector<double>& v) {
+    MPI_Allreduce(MPI_IN_PLACE, v.data(), static_cast<int>(v.size()), MPI_DOUBLE, MPI_SUM, comm);
+  };
+}
+}  // namespace
+
 SceneLimits copies_made_on_demand(MPI_Comm comm) {
   SceneLimits l;
   l.hold_copy_meshes = false;
   l.part = comm_rank(comm);
   l.parts = comm_size(comm);
-  l.sum = [comm](std::vector<double>& v) {
-    MPI_Allreduce(MPI_IN_PLACE, v.data(), static_cast<int>(v.size()), MPI_DOUBLE, MPI_SUM, comm);
-  };
+  l.sum = sum_over(comm);
   l.gather = [comm](const std::vector<double>& mine) { return allgather_doubles(comm, mine); };
   return l;
 }
@@ -236,7 +244,8 @@ Scene load_restart(MPI_Comm comm, const std::string& path, RestartPoint& restart
   restart.info = read_checkpoint_info(comm, restart.path);
   const CheckpointInfo& info = restart.info;
   Scene scene = load_scene_from_string(info.scene_text, info.scene_path, limits);
-  checkpoint::check_against_scene(info, scene, restart.path);
+  checkpoint::check_against_scene(info, scene, restart.path,
+                                  scene.object_digests(comm_rank(comm), comm_size(comm), sum_over(comm)));
   Simulation& sim = scene.sim;
   sim.steps = info.steps;
   sim.end_time.reset();
@@ -278,8 +287,10 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
   }
   // Before the Simulator drops the meshes this rank does not need (whole-scene passes
   // would make them again): the fingerprint checkpoints carry, the failure guard's scales.
-  const std::uint64_t fingerprint = scene_fingerprint(scene);
-  const GuardScales guard_scale = guard_scales(scene);
+  // Each rank digests and measures every nranks-th object (a copy placed for it), one
+  // MPI_Allreduce each combines them: no rank makes every mesh.
+  const std::uint64_t fingerprint = scene_fingerprint(scene, scene.object_digests(rank, nranks, sum_over(comm)));
+  const GuardScales guard_scale = guard_scales(scene, rank, nranks, sum_over(comm));
   Simulator simulator(comm, scene, partition);
   if (restart) {
     StepState state;

@@ -208,7 +208,7 @@ hid_t open_image(const void* data, std::size_t size) {
 void restart_from(hid_t file) {
   const CheckpointInfo info = checkpoint::read_run(file, kPath);
   const Scene scene = load(info.scene_text);
-  checkpoint::check_against_scene(info, scene, kPath);
+  checkpoint::check_against_scene(info, scene, kPath, scene.object_digests());
   const std::vector<ObjectLayout> layout = layout_of(scene);
   const auto nv = static_cast<softcontact::gid_t>(info.vertices);
   checkpoint::StateRows rows;

@@ -33,7 +33,7 @@ CheckpointInfo info_of(const Scene& s) {
 
 std::string refusal(const CheckpointInfo& info, const Scene& s) {
   try {
-    checkpoint::check_against_scene(info, s, "ckpt.h5");
+    checkpoint::check_against_scene(info, s, "ckpt.h5", s.object_digests());
   } catch (const InputError& e) {
     return e.what();
   }
