@@ -267,7 +267,6 @@ struct VerifyThresholds {
   double max_speed_ratio = 3;          ///< max speed / v_ff, every frame
 };
 
-/// Options of `softcontact verify OUTPUT_DIR`.
 /// How several processes share the frames of verify_output (the command line gives one
 /// over MPI; this layer knows no MPI). Process p checks the selected frames p, p + size,
 /// p + 2 size, ...; process 0 gathers the results and reports them in frame order.
@@ -284,6 +283,7 @@ public:
   virtual std::string first_error(const std::string& mine) const = 0;
 };
 
+/// Options of `softcontact verify OUTPUT_DIR`.
 struct VerifyOutputOptions {
   std::string frames = "all";          ///< all | last | first | comma list of N and A:B[:STEP], negative from the end
   VerifyThresholds thresholds;

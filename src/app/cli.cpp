@@ -11,10 +11,10 @@
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <optional>
 #include <sstream>
-#include <limits>
 #include <string>
 #include <vector>
 
