@@ -102,6 +102,10 @@ public:
   static std::shared_ptr<const EntryMesh> held(std::string source, TetMesh placed, std::function<TetMesh()> remake);
   /// One that keeps only `placed`'s digest and `remake` until a rank needs the mesh.
   static std::shared_ptr<const EntryMesh> recipe(std::string source, const TetMesh& placed, std::function<TetMesh()> remake);
+  /// One whose mesh another rank made and digested (`digest`): made here from `remake`
+  /// only when this rank needs it, and checked against that digest.
+  static std::shared_ptr<const EntryMesh> made_elsewhere(std::string source, std::uint64_t digest,
+                                                         std::function<TetMesh()> remake);
   /// The mesh: the held one, or made again and then held until drop().
   const TetMesh& get() const;
   /// The mesh by value without holding it: a copy of the held one, or one made again.
@@ -115,7 +119,7 @@ public:
   std::uint64_t digest() const { return digest_; }
 
 private:
-  EntryMesh(std::string source, const TetMesh& placed, std::function<TetMesh()> remake);
+  EntryMesh(std::string source, std::uint64_t digest, std::function<TetMesh()> remake);
   TetMesh remade() const;
   std::string source_;
   std::function<TetMesh()> remake_;

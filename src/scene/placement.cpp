@@ -195,15 +195,31 @@ Mat3 rotation_axis_angle(const Vec3& axis, double deg) {
           z * x * C - y * s, z * y * C + x * s, c + z * z * C};
 }
 
+namespace {
+/// How to make the entry's mesh again as its transform places it (none without a remake).
+std::function<TetMesh()> placed_remake(const EntrySpec& spec) {
+  if (!spec.remake) return {};
+  return [make = spec.remake, scale = spec.scale, rotation = spec.rotation, translate = spec.translate] {
+    return transformed(make(), scale, rotation, translate);
+  };
+}
+std::string entry_source(const EntrySpec& spec) { return "object '" + spec.name + "' (" + spec.source + ")"; }
+}  // namespace
+
+SceneObject single_made_elsewhere(const EntrySpec& spec, std::uint64_t digest, const ObjectShape& shape) {
+  Placement p;
+  p.kind = Placement::Kind::entry;
+  p.base = EntryMesh::made_elsewhere(entry_source(spec), digest, placed_remake(spec));
+  SceneObject o = make_object(spec, TetMesh(), spec.name, std::move(p));
+  o.shape = shape;
+  return o;
+}
+
 void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool hold_meshes,
                  std::vector<PendingRandom>* pending) {
   // The entry's mesh as its transform places it, and how to make it again.
-  std::function<TetMesh()> remake;
-  if (spec.remake)
-    remake = [make = spec.remake, scale = spec.scale, rotation = spec.rotation, translate = spec.translate] {
-      return transformed(make(), scale, rotation, translate);
-    };
-  const std::string source = "object '" + spec.name + "' (" + spec.source + ")";
+  std::function<TetMesh()> remake = placed_remake(spec);
+  const std::string source = entry_source(spec);
   TetMesh placed = transformed(spec.mesh, spec.scale, spec.rotation, spec.translate);
   if (spec.instancing == EntrySpec::Instancing::single) {
     // The object is the entry: its mesh is held by the object, and the entry keeps only

@@ -63,6 +63,12 @@ struct PendingRandom {
 void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool hold_meshes = true,
                  std::vector<PendingRandom>* pending = nullptr);
 
+/// The object of a single-copy entry whose mesh another rank made (parse_objects: each
+/// single-copy entry's mesh is made by one rank): no mesh here; its placement makes it
+/// again from the entry's source when this rank needs it, checked against `digest`, the
+/// one that rank computed; `shape` is what that rank measured. spec.remake must be set.
+SceneObject single_made_elsewhere(const EntrySpec& spec, std::uint64_t digest, const ObjectShape& shape);
+
 /// A random entry that could not be placed: its position in `pending`, and why.
 struct PlacementFailure {
   std::size_t entry = 0;

@@ -4,6 +4,7 @@
 #include <cstring>
 #include <functional>
 #include <map>
+#include <stdexcept>
 #include <utility>
 
 #include "softcontact/error.hpp"
@@ -38,18 +39,24 @@ std::size_t mesh_bytes(const TetMesh& m) {
 }
 }  // namespace
 
-EntryMesh::EntryMesh(std::string source, const TetMesh& placed, std::function<TetMesh()> remake)
-    : source_(std::move(source)), remake_(std::move(remake)), digest_(mesh_digest(placed)) {}
+EntryMesh::EntryMesh(std::string source, std::uint64_t digest, std::function<TetMesh()> remake)
+    : source_(std::move(source)), remake_(std::move(remake)), digest_(digest) {}
 
 std::shared_ptr<const EntryMesh> EntryMesh::held(std::string source, TetMesh placed, std::function<TetMesh()> remake) {
-  std::shared_ptr<EntryMesh> e(new EntryMesh(std::move(source), placed, std::move(remake)));
+  std::shared_ptr<EntryMesh> e(new EntryMesh(std::move(source), mesh_digest(placed), std::move(remake)));
   e->held_ = std::make_unique<TetMesh>(std::move(placed));
   return e;
 }
 
 std::shared_ptr<const EntryMesh> EntryMesh::recipe(std::string source, const TetMesh& placed, std::function<TetMesh()> remake) {
   if (!remake) return held(std::move(source), placed, nullptr);
-  return std::shared_ptr<const EntryMesh>(new EntryMesh(std::move(source), placed, std::move(remake)));
+  return std::shared_ptr<const EntryMesh>(new EntryMesh(std::move(source), mesh_digest(placed), std::move(remake)));
+}
+
+std::shared_ptr<const EntryMesh> EntryMesh::made_elsewhere(std::string source, std::uint64_t digest,
+                                                           std::function<TetMesh()> remake) {
+  if (!remake) throw std::logic_error("EntryMesh::made_elsewhere of " + source + " without a way to make it");
+  return std::shared_ptr<const EntryMesh>(new EntryMesh(std::move(source), digest, std::move(remake)));
 }
 
 TetMesh EntryMesh::remade() const {
@@ -165,6 +172,7 @@ void Scene::describe_objects(int part, int parts, const std::function<void(std::
   std::vector<std::size_t> todo;
   for (std::size_t k = 0; k < objects.size(); ++k)
     if (!objects[k].shape && !objects[k].surface) todo.push_back(k);
+  if (todo.empty()) return describe_objects();  // the same list on every part: none calls sum
   std::vector<double> triangles(todo.size(), 0.0);
   for (std::size_t i = static_cast<std::size_t>(part); i < todo.size(); i += static_cast<std::size_t>(parts))
     triangles[i] = static_cast<double>(extract_surface(view_mesh(todo[i]).get()).num_triangles());

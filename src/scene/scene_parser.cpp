@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -381,19 +383,28 @@ public:
         << limits_.max_objects << " objects a scene can hold";
       r.fail(at, s.str());
     }
+    check_mesh(r, at, what, copies, vertices, tets);
+  }
+  /// The vertices and tets alone (a single-copy entry's mesh, counted once every rank
+  /// knows it: parse_objects).
+  void check_mesh(const Reader& r, const YAML::Node& at, const std::string& what, double copies, double vertices,
+                  double tets) const {
     if (vertices_ + copies * vertices > static_cast<double>(limits_.max_vertices) ||
         tets_ + copies * tets > static_cast<double>(limits_.max_tets)) {
       std::ostringstream s;
       s.precision(15);
       s << what << " gives " << copies * vertices << " vertices and " << copies * tets << " tets";
       if (copies != 1) s << " (" << copies << " copies of " << vertices << " and " << tets << ")";
-      s << "; with the " << vertices_ << " and " << tets_ << " of the objects before it that is more than the "
+      s << "; with the " << vertices_ << " and " << tets_ << " of the objects counted before it that is more than the "
         << limits_.max_vertices << " vertices and " << limits_.max_tets << " tets a scene can hold";
       r.fail(at, s.str());
     }
   }
   void add(double copies, double vertices, double tets) {
     objects_ += copies;
+    add_mesh(copies, vertices, tets);
+  }
+  void add_mesh(double copies, double vertices, double tets) {
     vertices_ += copies * vertices;
     tets_ += copies * tets;
   }
@@ -514,153 +525,349 @@ std::function<TetMesh()> parse_primitive(const Reader& r, const YAML::Node& n, c
   r.fail(n, "unsupported primitive");
 }
 
-void parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const std::filesystem::path& dir,
-                   const SceneLimits& limits) {
+double max_tet_frequency(const TetMesh& m, const Material& mat);  // below
+
+/// Words per entry of what parse_objects' ranks share of a single-copy entry's mesh: made
+/// (0: failed, 1: made), warnings, then vertices, tets, triangles, the box (6 doubles),
+/// digest, element frequency, mesh bound and its estimate, each a 64-bit word sent as two
+/// exact 32-bit halves, so that a sum over the ranks (the others add zeros) gives every
+/// value to the bit (NaN and -0 included).
+constexpr std::size_t kMadeWords = 2 + 2 * (3 + 6 + 1 + 3);
+
+void put_word(std::vector<double>& v, std::size_t at, std::uint64_t w) {
+  v[at] = static_cast<double>(w >> 32);
+  v[at + 1] = static_cast<double>(w & 0xffffffffu);
+}
+std::uint64_t get_word(const std::vector<double>& v, std::size_t at) {
+  return (static_cast<std::uint64_t>(v[at]) << 32) | static_cast<std::uint64_t>(v[at + 1]);
+}
+void put_real(std::vector<double>& v, std::size_t at, double x) {
+  std::uint64_t w;
+  std::memcpy(&w, &x, sizeof w);
+  put_word(v, at, w);
+}
+double get_real(const std::vector<double>& v, std::size_t at) {
+  const std::uint64_t w = get_word(v, at);
+  double x;
+  std::memcpy(&x, &w, sizeof x);
+  return x;
+}
+
+/// A single-copy entry whose mesh no other entry uses (its own file, or a primitive): one
+/// rank makes it (reads the file or generates it), the rank of its object's index k
+/// (k % parts), places it, measures it and computes its frequencies; the others learn
+/// those from that rank and make the mesh only if they come to need it (docs/architecture.md,
+/// "Who reads which mesh file").
+struct MadeOnce {
+  EntrySpec spec;                     ///< without its mesh
+  YAML::Node node;
+  std::string where;
+  std::function<TetMesh(MeshReport*)> make;  ///< the mesh in its own coordinates, errors at the entry
+  std::size_t object = 0;             ///< its slot in scene.objects
+  bool mine = false;                  ///< made here
+  std::exception_ptr error;           ///< making or placing it here failed
+};
+
+/// What the objects' parse learnt that load_scene would otherwise compute from every mesh:
+/// the element frequency of each single-copy movable object and, with the mesh bound, its
+/// mesh's bound (by entry).
+struct ParsedObjects {
+  std::map<std::size_t, double> frequency;
+  std::map<int, MeshFrequency> mesh_bound;
+};
+
+ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scene, const std::filesystem::path& dir,
+                            const SceneLimits& limits) {
   SizeBudget budget(limits);
   if (!list.IsSequence() || list.size() == 0) r.fail(list, "'objects' must be a non-empty list of objects");
+  auto mesh_key = [&dir](const std::string& rel) {
+    const std::filesystem::path p = std::filesystem::path(rel).is_absolute() ? std::filesystem::path(rel) : dir / rel;
+    return p.lexically_normal().string();
+  };
+  // How many entries name each mesh file: one that only a single-copy entry uses is
+  // read by one rank (MadeOnce); the others are read once per rank and shared by entries.
+  std::map<std::string, int> uses;
+  for (const auto& n : list)
+    if (n.IsMap() && n["mesh"] && n["mesh"].IsScalar()) ++uses[mesh_key(n["mesh"].Scalar())];
+  const bool shared = limits.parts > 1 && static_cast<bool>(limits.sum);
   std::map<std::string, std::pair<TetMesh, MeshReport>> mesh_cache;  // a file instanced many times is read once
+  std::vector<std::vector<std::string>> warnings(list.size());      // of reading each entry's mesh
   std::vector<PendingRandom> pending;  // random entries, placed after the loop
   std::vector<YAML::Node> pending_nodes;
-  int entry = 0;
-  for (const auto& n : list) {
-    ++entry;
-    r.check_keys(n, {"name", "material", "mesh", "primitive", "transform", "velocity", "kinematic", "fixed", "motion", "instances"},
-                 "an object");
-    EntrySpec spec;
-    spec.index = entry - 1;
-    spec.name = n["name"] ? r.text(n["name"], "'name'") : "object" + std::to_string(entry);
-    const std::string where = "object '" + spec.name + "'";
-    spec.material = material_index(r, r.require(n, "material", where), scene.materials);
-    if (n["mesh"] && n["primitive"]) r.fail(n["primitive"], where + " has both 'mesh' and 'primitive'; give one");
-    if (n["mesh"]) {
-      const std::string rel = r.text(n["mesh"], "'mesh'");
-      const std::filesystem::path p = std::filesystem::path(rel).is_absolute() ? std::filesystem::path(rel) : dir / rel;
-      const std::string key = p.lexically_normal().string();
-      auto it = mesh_cache.find(key);
-      if (it == mesh_cache.end()) {
-        // The error_code overload: a name the file system refuses (too long, a component
-        // that is not a directory) is the scene's mistake, not an exception.
-        std::error_code ec;
-        const bool there = std::filesystem::exists(p, ec);
-        if (ec)
-          r.fail(n["mesh"], "cannot look up mesh file '" + key + "' of " + where + ": " + ec.message() +
-                                " (expected the path of a .msh or .node mesh file)");
-        if (!there) r.fail(n["mesh"], "mesh file '" + key + "' of " + where + " does not exist");
-        MeshReport rep;
-        TetMesh m = read_mesh(key, &rep);
-        it = mesh_cache.emplace(key, std::make_pair(std::move(m), rep)).first;
-        for (const auto& w : rep.warnings) scene.warnings.push_back(w);
-      }
-      spec.mesh = it->second.first;
-      spec.remake = [key] { return read_mesh(key); };  // its warnings were given once, here
-      spec.source = rel;
-    } else if (n["primitive"]) {
-      spec.remake = parse_primitive(r, n["primitive"], where, budget);
-      try {
-        spec.mesh = spec.remake();
-      } catch (const InputError& e) {
-        if (!e.file().empty()) throw;
-        r.fail(n["primitive"], e.detail());
-      }
-      spec.source = "primitive " + n["primitive"]["type"].Scalar();
-    } else {
-      r.fail(n, where + " needs a 'mesh' file or a 'primitive'");
-    }
-    if (const auto t = n["transform"]) {
-      r.check_keys(t, {"translate", "rotate", "scale"}, "'transform' of " + where);
-      if (t["translate"]) spec.translate = r.vec3(t["translate"], "'translate'");
-      if (const auto s = t["scale"]) {
-        if (s.IsSequence()) {
-          spec.scale = r.vec3(s, "'scale'");
-          for (double c : spec.scale)
-            if (!(c > 0)) r.fail(s, "'scale' must be positive in every direction");
-        } else {
-          const double c = r.positive(s, "'scale'");
-          spec.scale = {c, c, c};
-        }
-      }
-      if (const auto rot = t["rotate"]) {
-        if (rot.IsSequence()) {
-          const Vec3 e = r.vec3(rot, "'rotate' (degrees about x, y, z)");
-          spec.rotation = rotation_xyz_degrees(e);
-        } else {
-          r.check_keys(rot, {"axis", "angle"}, "'rotate' of " + where);
-          const Vec3 axis = r.vec3(r.require(rot, "axis", "'rotate'"), "'rotate.axis'");
-          if (std::hypot(axis[0], axis[1], axis[2]) == 0) r.fail(rot["axis"], "'rotate.axis' must not be zero");
-          spec.rotation = rotation_axis_angle(axis, r.number(r.require(rot, "angle", "'rotate'"), "'rotate.angle' (degrees)"));
-        }
-      }
-    }
-    if (n["velocity"]) spec.velocity = r.vec3(n["velocity"], "'velocity' (m/s)");
-    if (n["kinematic"]) spec.kinematic = r.boolean(n["kinematic"], "'kinematic'");
-    if (const auto f = n["fixed"]) {
-      auto one = [&](const YAML::Node& b) {
-        r.check_keys(b, {"min", "max"}, "'fixed' box of " + where);
-        Box box{r.vec3(r.require(b, "min", "'fixed'"), "'fixed.min'"), r.vec3(r.require(b, "max", "'fixed'"), "'fixed.max'")};
-        for (int d = 0; d < 3; ++d)
-          if (box.lo[d] > box.hi[d]) r.fail(b, "'fixed' box of " + where + " has min > max");
-        spec.fixed.push_back(box);
-      };
-      if (f.IsSequence())
-        for (const auto& b : f) one(b);
-      else
-        one(f);
-    }
-    if (const auto mo = n["motion"]) {
-      r.check_keys(mo, {"velocity", "start", "stop"}, "'motion' of " + where);
-      spec.motion.velocity = r.vec3(r.require(mo, "velocity", "'motion'"), "'motion.velocity' (m/s)");
-      if (mo["start"]) spec.motion.start = r.number(mo["start"], "'motion.start' (s)");
-      if (spec.motion.start < 0) r.fail(mo["start"], "'motion.start' must be >= 0 (seconds)");
-      if (mo["stop"]) {
-        spec.motion.stop = r.number(mo["stop"], "'motion.stop' (s)");
-        if (!(spec.motion.stop > spec.motion.start)) r.fail(mo["stop"], "'motion.stop' must be later than 'motion.start'");
-      }
-      if (!spec.kinematic && spec.fixed.empty())
-        r.fail(mo, "'motion' of " + where + " moves its fixed vertices, but it has none: add 'kinematic: true' or 'fixed' boxes");
-    }
-    if (const auto inst = n["instances"]) {
-      r.check_keys(inst, {"grid", "random"}, "'instances' of " + where);
-      if (inst["grid"] && inst["random"]) r.fail(inst, "give either 'grid' or 'random' in 'instances', not both");
-      if (const auto g = inst["grid"]) {
-        r.check_keys(g, {"count", "spacing"}, "'instances.grid'");
-        spec.grid_count = r.int3(r.require(g, "count", "'instances.grid'"), "'grid.count'", 1, 100000);
-        spec.grid_spacing = r.vec3(r.require(g, "spacing", "'instances.grid'"), "'grid.spacing' (m)");
-        spec.instancing = EntrySpec::Instancing::grid;
-      } else if (const auto rnd = inst["random"]) {
-        r.check_keys(rnd, {"count", "region", "seed", "rotate"}, "'instances.random'");
-        spec.random_count = static_cast<int>(r.integer(r.require(rnd, "count", "'instances.random'"), "'random.count'", 1, 1000000));
-        const auto reg = r.require(rnd, "region", "'instances.random'");
-        r.check_keys(reg, {"min", "max"}, "'random.region'");
-        spec.region = {r.vec3(r.require(reg, "min", "'region'"), "'region.min'"), r.vec3(r.require(reg, "max", "'region'"), "'region.max'")};
-        for (int d = 0; d < 3; ++d)
-          if (spec.region.lo[d] > spec.region.hi[d]) r.fail(reg, "'random.region' has min > max");
-        spec.seed = rnd["seed"] ? static_cast<std::uint64_t>(r.integer(rnd["seed"], "'random.seed'", 0, std::numeric_limits<std::int64_t>::max())) : 1;
-        spec.random_rotate = rnd["rotate"] ? r.boolean(rnd["rotate"], "'random.rotate'") : false;
-        spec.instancing = EntrySpec::Instancing::random;
-      }
-    }
-    double copies = 1;
-    if (spec.instancing == EntrySpec::Instancing::grid)
-      copies = static_cast<double>(spec.grid_count[0]) * spec.grid_count[1] * spec.grid_count[2];
-    else if (spec.instancing == EntrySpec::Instancing::random)
-      copies = spec.random_count;
-    const double nv = static_cast<double>(spec.mesh.num_vertices()), nt = static_cast<double>(spec.mesh.num_tets());
-    budget.check(r, n, where, copies, nv, nt);
-    budget.add(copies, nv, nt);
+  std::vector<MadeOnce> made;
+  ParsedObjects parsed;
+  auto place = [&](const EntrySpec& spec, const YAML::Node& n, std::vector<SceneObject>& objects) {
     try {
       const std::size_t before = pending.size();
-      instantiate(spec, scene.objects, limits.hold_copy_meshes, &pending);
+      instantiate(spec, objects, limits.hold_copy_meshes, &pending);
       if (pending.size() > before) pending_nodes.push_back(n);
     } catch (const InputError& e) {
       if (!e.file().empty()) throw;
       r.fail(n, e.detail());
     }
+  };
+  // The ranks share what they learnt of the entries they made. With `errors_only`, only
+  // whether each was made (on the way out with an error of the scene file: the first
+  // entry in scene order that could not be made is reported instead, as one rank would).
+  // Collective: every rank reaches it at the same point, for errors of the YAML are
+  // found alike on every rank.
+  auto settle = [&](bool errors_only) {
+    if (made.empty()) return;
+    std::vector<double> v(made.size() * kMadeWords, 0.0);
+    for (std::size_t i = 0; i < made.size(); ++i) {
+      const MadeOnce& d = made[i];
+      const std::size_t at = i * kMadeWords;
+      if (!d.mine || d.error) continue;
+      v[at] = 1;
+      v[at + 1] = static_cast<double>(warnings[static_cast<std::size_t>(d.spec.index)].size());
+      if (errors_only) continue;
+      const SceneObject& o = scene.objects[d.object];
+      const ObjectShape& sh = scene.shape(d.object);
+      put_word(v, at + 2, sh.vertices);
+      put_word(v, at + 4, sh.tets);
+      put_word(v, at + 6, sh.triangles);
+      for (int c = 0; c < 3; ++c) {
+        put_real(v, at + 8 + 2 * c, sh.box.lo[c]);
+        put_real(v, at + 14 + 2 * c, sh.box.hi[c]);
+      }
+      put_word(v, at + 20, o.placement.base->digest());
+      if (o.kinematic) continue;
+      const Material& mat = scene.materials[static_cast<std::size_t>(o.material)];
+      const double w = max_tet_frequency(o.mesh, mat);
+      put_real(v, at + 22, w);
+      if (scene.sim.dt_bound == DtBound::mesh && w > 0 && w < std::numeric_limits<double>::infinity()) {
+        const MeshFrequency f = mesh_max_frequency(o.mesh, mat, w);
+        put_real(v, at + 24, f.omega);
+        put_real(v, at + 26, f.estimate);
+      }
+    }
+    if (shared) limits.sum(v);
+    for (std::size_t i = 0; i < made.size(); ++i) {
+      MadeOnce& d = made[i];
+      if (v[i * kMadeWords] != 0) continue;
+      // The first entry that could not be made: its rank's error, which every other rank
+      // finds again by making it (the same message, as if read here).
+      if (d.error) std::rethrow_exception(d.error);
+      std::vector<SceneObject> scratch;
+      d.spec.mesh = d.make(nullptr);
+      place(d.spec, d.node, scratch);
+      r.fail(d.node, d.where + ": its mesh could not be made by the rank that read it, but was here (did '" +
+                         d.spec.source + "' change while the scene was read?)");
+    }
+    if (errors_only) return;
+    for (std::size_t i = 0; i < made.size(); ++i) {
+      MadeOnce& d = made[i];
+      const std::size_t at = i * kMadeWords;
+      ObjectShape sh;
+      sh.vertices = get_word(v, at + 2);
+      sh.tets = get_word(v, at + 4);
+      sh.triangles = get_word(v, at + 6);
+      for (int c = 0; c < 3; ++c) {
+        sh.box.lo[c] = get_real(v, at + 8 + 2 * c);
+        sh.box.hi[c] = get_real(v, at + 14 + 2 * c);
+      }
+      budget.check_mesh(r, d.node, d.where, 1, static_cast<double>(sh.vertices), static_cast<double>(sh.tets));
+      budget.add_mesh(1, static_cast<double>(sh.vertices), static_cast<double>(sh.tets));
+      if (!d.mine) {
+        scene.objects[d.object] = single_made_elsewhere(d.spec, get_word(v, at + 20), sh);
+        // Its reading warned on the rank that read it: the words again, from the file.
+        if (v[at + 1] != 0) {
+          MeshReport rep;
+          (void)d.make(&rep);
+          warnings[static_cast<std::size_t>(d.spec.index)] = rep.warnings;
+        }
+      }
+      if (d.spec.kinematic) continue;
+      const double w = get_real(v, at + 22);
+      parsed.frequency[d.object] = w;
+      if (scene.sim.dt_bound == DtBound::mesh && w > 0 && w < std::numeric_limits<double>::infinity()) {
+        MeshFrequency f;
+        f.omega = get_real(v, at + 24);
+        f.element = w;
+        f.estimate = get_real(v, at + 26);
+        parsed.mesh_bound[d.spec.index] = f;
+      }
+    }
+  };
+
+  int entry = 0;
+  for (const auto& n : list) {
+    try {
+      ++entry;
+      r.check_keys(n, {"name", "material", "mesh", "primitive", "transform", "velocity", "kinematic", "fixed", "motion", "instances"},
+                   "an object");
+      EntrySpec spec;
+      spec.index = entry - 1;
+      spec.name = n["name"] ? r.text(n["name"], "'name'") : "object" + std::to_string(entry);
+      const std::string where = "object '" + spec.name + "'";
+      spec.material = material_index(r, r.require(n, "material", where), scene.materials);
+      if (n["mesh"] && n["primitive"]) r.fail(n["primitive"], where + " has both 'mesh' and 'primitive'; give one");
+      std::string key;                                 // its mesh file
+      std::function<TetMesh(MeshReport*)> make;        // a primitive, generated
+      if (n["mesh"]) {
+        const std::string rel = r.text(n["mesh"], "'mesh'");
+        const std::filesystem::path p = std::filesystem::path(rel).is_absolute() ? std::filesystem::path(rel) : dir / rel;
+        key = mesh_key(rel);
+        if (mesh_cache.find(key) == mesh_cache.end()) {
+          // The error_code overload: a name the file system refuses (too long, a component
+          // that is not a directory) is the scene's mistake, not an exception.
+          std::error_code ec;
+          const bool there = std::filesystem::exists(p, ec);
+          if (ec)
+            r.fail(n["mesh"], "cannot look up mesh file '" + key + "' of " + where + ": " + ec.message() +
+                                  " (expected the path of a .msh or .node mesh file)");
+          if (!there) r.fail(n["mesh"], "mesh file '" + key + "' of " + where + " does not exist");
+        }
+        spec.remake = [key] { return read_mesh(key); };  // its warnings were given once, when first read
+        make = [key](MeshReport* rep) { return read_mesh(key, rep); };
+        spec.source = rel;
+      } else if (n["primitive"]) {
+        spec.remake = parse_primitive(r, n["primitive"], where, budget);
+        make = [&r, node = n["primitive"], generate = spec.remake](MeshReport*) {
+          try {
+            return generate();
+          } catch (const InputError& e) {
+            if (!e.file().empty()) throw;
+            r.fail(node, e.detail());
+          }
+        };
+        spec.source = "primitive " + n["primitive"]["type"].Scalar();
+      } else {
+        r.fail(n, where + " needs a 'mesh' file or a 'primitive'");
+      }
+      if (const auto t = n["transform"]) {
+        r.check_keys(t, {"translate", "rotate", "scale"}, "'transform' of " + where);
+        if (t["translate"]) spec.translate = r.vec3(t["translate"], "'translate'");
+        if (const auto s = t["scale"]) {
+          if (s.IsSequence()) {
+            spec.scale = r.vec3(s, "'scale'");
+            for (double c : spec.scale)
+              if (!(c > 0)) r.fail(s, "'scale' must be positive in every direction");
+          } else {
+            const double c = r.positive(s, "'scale'");
+            spec.scale = {c, c, c};
+          }
+        }
+        if (const auto rot = t["rotate"]) {
+          if (rot.IsSequence()) {
+            const Vec3 e = r.vec3(rot, "'rotate' (degrees about x, y, z)");
+            spec.rotation = rotation_xyz_degrees(e);
+          } else {
+            r.check_keys(rot, {"axis", "angle"}, "'rotate' of " + where);
+            const Vec3 axis = r.vec3(r.require(rot, "axis", "'rotate'"), "'rotate.axis'");
+            if (std::hypot(axis[0], axis[1], axis[2]) == 0) r.fail(rot["axis"], "'rotate.axis' must not be zero");
+            spec.rotation = rotation_axis_angle(axis, r.number(r.require(rot, "angle", "'rotate'"), "'rotate.angle' (degrees)"));
+          }
+        }
+      }
+      if (n["velocity"]) spec.velocity = r.vec3(n["velocity"], "'velocity' (m/s)");
+      if (n["kinematic"]) spec.kinematic = r.boolean(n["kinematic"], "'kinematic'");
+      if (const auto f = n["fixed"]) {
+        auto one = [&](const YAML::Node& b) {
+          r.check_keys(b, {"min", "max"}, "'fixed' box of " + where);
+          Box box{r.vec3(r.require(b, "min", "'fixed'"), "'fixed.min'"), r.vec3(r.require(b, "max", "'fixed'"), "'fixed.max'")};
+          for (int d = 0; d < 3; ++d)
+            if (box.lo[d] > box.hi[d]) r.fail(b, "'fixed' box of " + where + " has min > max");
+          spec.fixed.push_back(box);
+        };
+        if (f.IsSequence())
+          for (const auto& b : f) one(b);
+        else
+          one(f);
+      }
+      if (const auto mo = n["motion"]) {
+        r.check_keys(mo, {"velocity", "start", "stop"}, "'motion' of " + where);
+        spec.motion.velocity = r.vec3(r.require(mo, "velocity", "'motion'"), "'motion.velocity' (m/s)");
+        if (mo["start"]) spec.motion.start = r.number(mo["start"], "'motion.start' (s)");
+        if (spec.motion.start < 0) r.fail(mo["start"], "'motion.start' must be >= 0 (seconds)");
+        if (mo["stop"]) {
+          spec.motion.stop = r.number(mo["stop"], "'motion.stop' (s)");
+          if (!(spec.motion.stop > spec.motion.start)) r.fail(mo["stop"], "'motion.stop' must be later than 'motion.start'");
+        }
+        if (!spec.kinematic && spec.fixed.empty())
+          r.fail(mo, "'motion' of " + where + " moves its fixed vertices, but it has none: add 'kinematic: true' or 'fixed' boxes");
+      }
+      if (const auto inst = n["instances"]) {
+        r.check_keys(inst, {"grid", "random"}, "'instances' of " + where);
+        if (inst["grid"] && inst["random"]) r.fail(inst, "give either 'grid' or 'random' in 'instances', not both");
+        if (const auto g = inst["grid"]) {
+          r.check_keys(g, {"count", "spacing"}, "'instances.grid'");
+          spec.grid_count = r.int3(r.require(g, "count", "'instances.grid'"), "'grid.count'", 1, 100000);
+          spec.grid_spacing = r.vec3(r.require(g, "spacing", "'instances.grid'"), "'grid.spacing' (m)");
+          spec.instancing = EntrySpec::Instancing::grid;
+        } else if (const auto rnd = inst["random"]) {
+          r.check_keys(rnd, {"count", "region", "seed", "rotate"}, "'instances.random'");
+          spec.random_count = static_cast<int>(r.integer(r.require(rnd, "count", "'instances.random'"), "'random.count'", 1, 1000000));
+          const auto reg = r.require(rnd, "region", "'instances.random'");
+          r.check_keys(reg, {"min", "max"}, "'random.region'");
+          spec.region = {r.vec3(r.require(reg, "min", "'region'"), "'region.min'"), r.vec3(r.require(reg, "max", "'region'"), "'region.max'")};
+          for (int d = 0; d < 3; ++d)
+            if (spec.region.lo[d] > spec.region.hi[d]) r.fail(reg, "'random.region' has min > max");
+          spec.seed = rnd["seed"] ? static_cast<std::uint64_t>(r.integer(rnd["seed"], "'random.seed'", 0, std::numeric_limits<std::int64_t>::max())) : 1;
+          spec.random_rotate = rnd["rotate"] ? r.boolean(rnd["rotate"], "'random.rotate'") : false;
+          spec.instancing = EntrySpec::Instancing::random;
+        }
+      }
+      double copies = 1;
+      if (spec.instancing == EntrySpec::Instancing::grid)
+        copies = static_cast<double>(spec.grid_count[0]) * spec.grid_count[1] * spec.grid_count[2];
+      else if (spec.instancing == EntrySpec::Instancing::random)
+        copies = spec.random_count;
+      if (spec.instancing == EntrySpec::Instancing::single && (key.empty() || uses[key] == 1)) {
+        // Made by one rank; its vertices and tets count once every rank knows them (settle).
+        budget.check(r, n, where, 1, 0, 0);
+        budget.add(1, 0, 0);
+        MadeOnce d;
+        d.spec = spec;
+        d.node = static_cast<const YAML::Node&>(n);
+        d.where = where;
+        d.make = make;
+        d.object = scene.objects.size();
+        d.mine = !shared || static_cast<int>(d.object % static_cast<std::size_t>(limits.parts)) == limits.part;
+        if (d.mine) {
+          try {
+            MeshReport rep;
+            d.spec.mesh = make(&rep);
+            warnings[static_cast<std::size_t>(spec.index)] = rep.warnings;
+            place(d.spec, n, scene.objects);
+          } catch (const InputError&) {
+            d.error = std::current_exception();  // reported by settle, at the first such entry
+          }
+          d.spec.mesh = TetMesh();
+        }
+        scene.objects.resize(d.object + 1);  // the slot of one made elsewhere (or not made)
+        made.push_back(std::move(d));
+        continue;
+      }
+      if (!key.empty()) {
+        auto it = mesh_cache.find(key);
+        if (it == mesh_cache.end()) {
+          MeshReport rep;
+          TetMesh m = read_mesh(key, &rep);
+          it = mesh_cache.emplace(key, std::make_pair(std::move(m), rep)).first;
+          warnings[static_cast<std::size_t>(spec.index)] = rep.warnings;
+        }
+        spec.mesh = it->second.first;
+      } else {
+        spec.mesh = make(nullptr);
+      }
+      const double nv = static_cast<double>(spec.mesh.num_vertices()), nt = static_cast<double>(spec.mesh.num_tets());
+      budget.check(r, n, where, copies, nv, nt);
+      budget.add(copies, nv, nt);
+      place(spec, n, scene.objects);
+    } catch (const InputError&) {
+      settle(true);  // every rank reaches it: errors of the YAML are found alike
+      throw;
+    }
   }
+  settle(false);
+  for (const auto& w : warnings) scene.warnings.insert(scene.warnings.end(), w.begin(), w.end());
   // The random copies, once every entry is read: the ranks share the placement of
   // independent regions (SceneLimits::gather). A region too full to place its copies is
   // reported at its entry, the first in scene order, as if placed one by one.
   if (const auto failed = place_random(pending, scene.objects, limits.hold_copy_meshes, limits))
     r.fail(pending_nodes[failed->entry], failed->detail);
+  return parsed;
 }
 
 /// Highest tet frequency of one object (tet_max_frequency); NaN when any tet's is NaN, so
@@ -688,9 +895,12 @@ double max_tet_frequency(const TetMesh& m, const Material& mat) {
 /// as the entry placed it (their placed meshes would give the same eigenvalues but for
 /// the rounding of the placement); any other object its own mesh's. The meshes are shared
 /// over the parts (the k-th distinct mesh on part k % parts; SceneLimits::sum adds the
-/// parts' vectors), each value computed exactly as on one part.
+/// parts' vectors), each value computed exactly as on one part. The objects in `known`
+/// take their value from it (the single-copy entries, measured by the rank that made them:
+/// parse_objects).
 std::vector<double> object_frequencies(const Scene& scene, int part, int parts,
-                                       const std::function<void(std::vector<double>&)>& sum) {
+                                       const std::function<void(std::vector<double>&)>& sum,
+                                       const std::map<std::size_t, double>& known = {}) {
   const std::size_t n = scene.objects.size();
   std::vector<double> frequency(n, 0.0);
   std::vector<std::size_t> from(n);  // the object whose value object i takes
@@ -700,6 +910,7 @@ std::vector<double> object_frequencies(const Scene& scene, int part, int parts,
     const SceneObject& o = scene.objects[i];
     if (o.kinematic) continue;
     from[i] = i;
+    if (known.count(i)) continue;
     if (o.placement.is_copy()) {
       const auto [it, fresh] = first.emplace(std::make_pair(o.placement.base.get(), o.material), i);
       from[i] = it->second;
@@ -717,6 +928,7 @@ std::vector<double> object_frequencies(const Scene& scene, int part, int parts,
                                             : max_tet_frequency(scene.view_mesh(i).get(), mat);
   }
   if (shared) sum(frequency);  // 0 + w is w, NaN stays NaN: each value as computed alone
+  for (const auto& [i, w] : known) frequency[i] = w;
   for (std::size_t i = 0; i < n; ++i)
     if (!scene.objects[i].kinematic) frequency[i] = frequency[from[i]];
   return frequency;
@@ -775,7 +987,7 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path, c
   else scene.friction.assign(scene.materials.size(), std::vector<Friction>(scene.materials.size(), scene.default_friction));
 
   const std::filesystem::path dir = std::filesystem::path(path).parent_path();
-  parse_objects(r, r.require(root, "objects", "the scene"), scene, dir, limits);
+  const ParsedObjects parsed = parse_objects(r, r.require(root, "objects", "the scene"), scene, dir, limits);
 
   // Implicit Euler needs a symmetric positive (semi-)definite stiffness: the laws whose
   // registry entry says so (linear, and the corotational model's warped one). The
@@ -802,8 +1014,9 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path, c
   // 'young', tiny 'density') or tets whose volume underflows (extreme 'size' ratios) give
   // inf or NaN, and then no time step is stable.
   StableStep stable;
-  std::map<int, MeshFrequency> mesh_cache;
-  const std::vector<double> frequency = object_frequencies(scene, limits.part, limits.parts, limits.sum);
+  std::map<int, MeshFrequency> mesh_cache(parsed.mesh_bound);
+  const std::vector<double> frequency =
+      object_frequencies(scene, limits.part, limits.parts, limits.sum, parsed.frequency);
   // Every object's shape, now that every mesh is in hand: the ranks share the boundaries
   // (the copies placed without their meshes have theirs already).
   if (!limits.hold_copy_meshes) scene.describe_objects(limits.part, limits.parts, limits.sum);

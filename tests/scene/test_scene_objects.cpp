@@ -377,42 +377,67 @@ TEST(SceneObjects, CopiesOfAnEntryTakeTheFrequencyOfItsMesh) {
   EXPECT_NEAR(stable_time_step(one), 2 / wmax, 1e-12 * (2 / wmax));
   EXPECT_EQ(one.sim.dt, one.sim.dt_safety * stable_time_step(one)) << "the run's step and stable_step agree";
 
-  // Two parts: what each computes alone (a part with zeros elsewhere may refuse the
-  // scene), then each with the other's values added, as MPI_Allreduce would. Each sum is
-  // one call: the frequencies, then the single-copy objects' boundary triangles
-  // (Scene::describe_objects shared over the parts).
+  // Two parts whose `sum` is an MPI_Allreduce, simulated one collective at a time (each
+  // part run again up to its next call, the calls before answered with both parts'
+  // vectors added). The calls: the single-copy entries' measures (the floor, object 0, made
+  // by part 0; the cube, object 19, by part 1; kMadeWords each), then the frequencies of
+  // the copies' entries (the box's on part 0, the ball's on part 1; the cube's was
+  // measured by its maker), and no more (every object has its shape then).
+  struct StopAtCall {};
   std::vector<std::vector<double>> calls[2];
-  for (int p : {0, 1}) {
-    SceneLimits l = lean();
-    l.part = p;
-    l.parts = 2;
-    l.sum = [&calls, p](std::vector<double>& v) { calls[p].push_back(v); };
-    try {
-      (void)load_scene_from_string(text, "scene.yaml", l);
-    } catch (const InputError&) {
-    }
-    ASSERT_EQ(calls[p].size(), 2u) << "part " << p;
-  }
-  const auto computed = [&](int p, std::size_t call) {
-    return std::count_if(calls[p][call].begin(), calls[p][call].end(), [](double w) { return w != 0; });
+  const auto added = [&calls](std::size_t c) {
+    std::vector<double> v = calls[0][c];
+    for (std::size_t k = 0; k < v.size(); ++k) v[k] += calls[1][c][k];
+    return v;
   };
-  EXPECT_EQ(computed(0, 0), 2) << "part 0: the box entry and the cube, each once";
-  EXPECT_EQ(computed(1, 0), 1) << "part 1: the ball entry, once";
-  ASSERT_EQ(calls[0][1].size(), 2u) << "the floor and the cube have no shape before";
-  EXPECT_EQ(computed(0, 1), 1) << "part 0 counts the floor's boundary";
-  EXPECT_EQ(computed(1, 1), 1) << "part 1 counts the cube's";
-  for (int p : {0, 1}) {
+  const auto run_part = [&](int p, bool record) {
     SceneLimits l = lean();
     l.part = p;
     l.parts = 2;
     std::size_t call = 0;
-    l.sum = [&calls, &call, p](std::vector<double>& v) {
-      ASSERT_LT(call, 2u);
-      ASSERT_EQ(v, calls[p][call]);
-      for (std::size_t k = 0; k < v.size(); ++k) v[k] = calls[0][call][k] + calls[1][call][k];
-      ++call;
+    l.sum = [&, p, record](std::vector<double>& v) {
+      if (call < calls[p].size()) {
+        EXPECT_EQ(v, calls[p][call]) << "part " << p << ": the same call again";
+        v = added(call++);
+        return;
+      }
+      ASSERT_TRUE(record) << "part " << p << ": a call more than recorded";
+      calls[p].push_back(v);
+      throw StopAtCall{};
     };
-    const Scene both = load_scene_from_string(text, "scene.yaml", l);
+    return load_scene_from_string(text, "scene.yaml", l);
+  };
+  for (bool stopped = true; stopped;) {
+    stopped = false;
+    for (int p : {0, 1}) {
+      try {
+        (void)run_part(p, true);
+      } catch (const StopAtCall&) {
+        stopped = true;
+      }
+    }
+    ASSERT_EQ(calls[0].size(), calls[1].size()) << "the parts make the same calls";
+    ASSERT_LE(calls[0].size(), 3u);
+  }
+  ASSERT_EQ(calls[0].size(), 2u);
+  const auto written = [&](int p, std::size_t c, std::size_t lo, std::size_t hi) {
+    std::size_t n = 0;
+    for (std::size_t k = lo; k < hi; ++k) n += calls[p][c][k] != 0 ? 1 : 0;
+    return n;
+  };
+  const std::size_t words = calls[0][0].size() / 2;
+  ASSERT_EQ(calls[0][0].size(), 2 * words) << "two single-copy entries";
+  EXPECT_GT(written(0, 0, 0, words), 0u) << "part 0 measures the floor";
+  EXPECT_EQ(written(0, 0, words, 2 * words), 0u) << "part 0 does not make the cube";
+  EXPECT_EQ(written(1, 0, 0, words), 0u) << "part 1 does not make the floor";
+  EXPECT_GT(written(1, 0, words, 2 * words), 0u) << "part 1 measures the cube";
+  ASSERT_EQ(calls[0][1].size(), one.objects.size());
+  EXPECT_EQ(written(0, 1, 0, one.objects.size()), 1u) << "part 0: the box entry, once";
+  EXPECT_NE(calls[0][1][1], 0) << "the box entry's first copy";
+  EXPECT_EQ(written(1, 1, 0, one.objects.size()), 1u) << "part 1: the ball entry, once";
+  EXPECT_NE(calls[1][1][7], 0) << "the ball entry's first copy";
+  for (int p : {0, 1}) {
+    const Scene both = run_part(p, false);
     EXPECT_EQ(both.sim.dt, one.sim.dt) << "part " << p;
     for (std::size_t k = 0; k < one.objects.size(); ++k) {
       EXPECT_EQ(both.objects[k].shape->triangles, extract_surface(one.objects[k].mesh).num_triangles()) << k;

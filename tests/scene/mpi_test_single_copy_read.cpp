@@ -1,0 +1,180 @@
+// Single-copy entries read by one rank each (scene_parser.cpp, MadeOnce): a mesh file that
+// only one single-copy entry names, or a primitive, is read (generated) by the rank of its
+// object's index, k % ranks; the other ranks learn its counts, box, digest and
+// frequencies from that rank and make the mesh only when they need it. Runs under mpiexec
+// with 1 to 4 ranks (ctest mpi.npN). The reference is the same scene loaded by this rank
+// alone (one part, every mesh held): everything every rank knows must be that, to the bit.
+#include <gtest/gtest.h>
+#include <mpi.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "softcontact/error.hpp"
+#include "softcontact/mesh_io.hpp"
+#include "softcontact/mpi_util.hpp"
+#include "softcontact/primitives.hpp"
+#include "softcontact/run.hpp"
+#include "softcontact/scene.hpp"
+
+using namespace softcontact;
+
+namespace {
+
+std::uint64_t bits(double x) {
+  std::uint64_t w;
+  std::memcpy(&w, &x, sizeof w);
+  return w;
+}
+
+std::function<void(std::vector<double>&)> sum_world() {
+  return [](std::vector<double>& v) {
+    MPI_Allreduce(MPI_IN_PLACE, v.data(), static_cast<int>(v.size()), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+  };
+}
+
+// The scene's directory, written by rank 0: three mesh files used once each (one with an
+// inverted tet and one with a vertex no tet uses, so that reading them warns), one file
+// named by a single-copy entry and a grid entry (read by every rank, shared), primitives
+// (a kinematic floor, a sphere, a torus), and a broken file for the error cases.
+std::filesystem::path scene_dir() {
+  static const std::filesystem::path dir = [] {
+    const auto d = std::filesystem::temp_directory_path() / "softcontact_mpi_single_copy_read";
+    if (comm_rank(MPI_COMM_WORLD) == 0) {
+      std::filesystem::create_directories(d);
+      write_gmsh((d / "a.msh").string(), make_box(0.2, 0.2, 0.2, 3, 3, 3), GmshFormat::v41_binary);
+      TetMesh b = make_box(0.3, 0.1, 0.2, 3, 1, 2);
+      std::swap(b.tets[2], b.tets[3]);  // tet 1 inverted: reoriented, with a warning
+      write_gmsh((d / "b.msh").string(), b, GmshFormat::v41_binary);
+      TetMesh c = make_box(0.1, 0.2, 0.1, 1, 2, 1);
+      c.points.insert(c.points.end(), {5.0, 5.0, 5.0});  // used by no tet: removed, with a warning
+      write_gmsh((d / "c.msh").string(), c, GmshFormat::v41_binary);
+      write_gmsh((d / "shared.msh").string(), make_box(0.1, 0.1, 0.1, 1, 1, 1), GmshFormat::v41_binary);
+      std::ofstream(d / "broken.msh") << "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 8 1 8\nnot a number\n";
+    }
+    MPI_Barrier(MPI_COMM_WORLD);
+    return d;
+  }();
+  return dir;
+}
+
+const char* kHead = R"(simulation: {dt: auto, steps: 10}
+materials:
+  - {name: rubber, model: corotational, young: 1.0e5, poisson: 0.3, density: 1000}
+  - {name: stiff, model: neohookean, young: 4.0e6, poisson: 0.4, density: 1200}
+objects:
+)";
+
+// Object indices: 0 floor, 1 a, 2 b, 3 grid[0..3] (shared.msh), 7 ball, 8 c, 9 single
+// shared.msh, 10 ring.
+std::string good_scene() {
+  return std::string(kHead) + R"(  - {name: floor, material: rubber, kinematic: true, primitive: {type: plate, size: [4, 2], thickness: 0.1, cells: [8, 4]}, transform: {translate: [0, 0, -0.05]}}
+  - {name: a, material: rubber, mesh: a.msh, transform: {rotate: [10, 20, 30], translate: [-1.2, 0, 0.2]}}
+  - {name: b, material: stiff, mesh: b.msh, transform: {scale: [1, 2, 0.5], translate: [-0.6, 0, 0.2]}, velocity: [0, 0, -1]}
+  - {name: grid, material: rubber, mesh: shared.msh, instances: {grid: {count: [2, 2, 1], spacing: [0.3, 0.3, 0]}}, transform: {translate: [0, -0.5, 0.3]}}
+  - {name: ball, material: stiff, primitive: {type: sphere, radius: 0.1, resolution: 3}, transform: {translate: [0.8, 0, 0.3]}}
+  - {name: c, material: rubber, mesh: c.msh, transform: {translate: [1.2, 0, 0.2]}}
+  - {name: single, material: rubber, mesh: shared.msh, transform: {translate: [1.5, 0.5, 0.2]}}
+  - {name: ring, material: rubber, primitive: {type: torus, major_radius: 0.2, minor_radius: 0.05, resolution: 2}, transform: {translate: [0, 0.6, 0.2]}}
+)";
+}
+
+std::string write_scene(const std::string& name, const std::string& text) {
+  const std::filesystem::path p = scene_dir() / name;
+  if (comm_rank(MPI_COMM_WORLD) == 0) std::ofstream(p) << text;
+  MPI_Barrier(MPI_COMM_WORLD);
+  return p.string();
+}
+
+// What load_scene throws (empty: nothing).
+std::string error_of(const std::string& path, const SceneLimits& limits) {
+  try {
+    (void)load_scene(path, limits);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return {};
+}
+
+}  // namespace
+
+// Every rank knows every object's counts, box, digest and the stable step exactly as one
+// rank that read every file, warnings included; each single-copy entry's mesh is held by
+// the one rank that made it, and made again from its file, bitwise, where asked for.
+TEST(SingleCopyRead, OneRankMakesEachEntryAndEveryRankKnowsItToTheBit) {
+  const std::string path = write_scene("good.yaml", good_scene());
+  const Scene one = load_scene(path);
+  const Scene shared = load_scene(path, copies_made_on_demand(MPI_COMM_WORLD));
+  const int rank = comm_rank(MPI_COMM_WORLD), n = comm_size(MPI_COMM_WORLD);
+  ASSERT_EQ(one.objects.size(), 11u);
+  ASSERT_EQ(shared.objects.size(), one.objects.size());
+  EXPECT_EQ(bits(shared.sim.dt), bits(one.sim.dt));
+  ASSERT_EQ(one.warnings.size(), 2u) << "b.msh and c.msh warn when read";
+  EXPECT_NE(one.warnings[0].find("b.msh: warning: 1 inverted"), std::string::npos) << one.warnings[0];
+  EXPECT_NE(one.warnings[1].find("c.msh: warning: 1 vertices"), std::string::npos) << one.warnings[1];
+  EXPECT_EQ(shared.warnings, one.warnings);
+  EXPECT_EQ(shared.object_digests(rank, n, sum_world()), one.object_digests());
+  const std::vector<std::size_t> made_once = {0, 1, 2, 7, 8, 10};  // own file or primitive, one copy
+  long held_here = 0;
+  for (std::size_t k = 0; k < one.objects.size(); ++k) {
+    SCOPED_TRACE(one.objects[k].name);
+    const ObjectShape& want = one.shape(k);
+    const ObjectShape& got = shared.shape(k);
+    EXPECT_EQ(got.vertices, want.vertices);
+    EXPECT_EQ(got.tets, want.tets);
+    EXPECT_EQ(got.triangles, want.triangles);
+    for (int d = 0; d < 3; ++d) {
+      EXPECT_EQ(bits(got.box.lo[d]), bits(want.box.lo[d]));
+      EXPECT_EQ(bits(got.box.hi[d]), bits(want.box.hi[d]));
+    }
+    const bool once = std::find(made_once.begin(), made_once.end(), k) != made_once.end();
+    const bool held = !shared.objects[k].mesh.points.empty();
+    if (once) {
+      EXPECT_EQ(held, static_cast<int>(k % static_cast<std::size_t>(n)) == rank) << "made by rank k % ranks only";
+      held_here += held ? 1 : 0;
+    }
+    EXPECT_EQ(shared.view_mesh(k).get().points, one.objects[k].mesh.points) << "made again bitwise";
+    EXPECT_EQ(shared.view_mesh(k).get().tets, one.objects[k].mesh.tets);
+  }
+  long held_all = held_here;
+  MPI_Allreduce(MPI_IN_PLACE, &held_all, 1, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_EQ(held_all, static_cast<long>(made_once.size())) << "each single-copy mesh made by exactly one rank";
+  EXPECT_EQ(stable_step(shared).object, stable_step(one).object);
+}
+
+// A mesh file that cannot be read, named by an entry another rank reads: every rank stops
+// with one rank's message, the first error in scene order as one rank alone would report
+// it, also when the YAML of a later entry is wrong too, and the YAML error when it comes
+// first.
+TEST(SingleCopyRead, AnEntryOneRankCannotReadStopsEveryRankWithOneRanksMessage) {
+  const std::string head = std::string(kHead) +
+                            "  - {name: floor, material: rubber, kinematic: true, primitive: {type: plate, size: [4, 2], "
+                            "thickness: 0.1, cells: [8, 4]}}\n";
+  const std::string broken = "  - {name: bad, material: rubber, mesh: broken.msh}\n";
+  const std::string fine = "  - {name: fine, material: rubber, mesh: a.msh, transform: {translate: [1, 0, 0.3]}}\n";
+  const std::string typo = "  - {name: typo, material: rubber, mesh: c.msh, velocty: [0, 0, 1]}\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"broken.yaml", head + broken + fine},            // the broken file: object 1, rank 1 of 2+
+      {"broken_then_typo.yaml", head + broken + typo},  // the mesh's error, not the later YAML's
+      {"typo_then_broken.yaml", head + typo + broken},  // the YAML's error, before the mesh's
+  };
+  for (const auto& [name, text] : cases) {
+    SCOPED_TRACE(name);
+    const std::string path = write_scene(name, text);
+    const std::string alone = error_of(path, SceneLimits{});
+    const std::string together = error_of(path, copies_made_on_demand(MPI_COMM_WORLD));
+    ASSERT_FALSE(alone.empty());
+    EXPECT_EQ(together, alone);
+    if (name == "typo_then_broken.yaml") EXPECT_NE(alone.find("velocty"), std::string::npos) << alone;
+    else EXPECT_NE(alone.find("broken.msh"), std::string::npos) << alone;
+    // Every rank stopped with the same message (compared by its length and first bytes).
+    long len = static_cast<long>(together.size()), lo = len, hi = len;
+    MPI_Allreduce(MPI_IN_PLACE, &lo, 1, MPI_LONG, MPI_MIN, MPI_COMM_WORLD);
+    MPI_Allreduce(MPI_IN_PLACE, &hi, 1, MPI_LONG, MPI_MAX, MPI_COMM_WORLD);
+    EXPECT_EQ(lo, hi);
+  }
+}
