@@ -172,6 +172,10 @@ struct SceneObject {
   /// The scene entry it is a copy of (-1: none known). All copies of an entry are rigid
   /// motions of one scaled mesh with one material, so they share their frequencies.
   int entry = -1;
+  /// The rank that made its mesh while the scene was read, the only one that held it then
+  /// (a single-copy entry made by one rank: docs/architecture.md, "Who reads which mesh
+  /// file"); -1: every rank made it, or it was read on one rank alone.
+  int maker = -1;
 };
 
 enum class ContactClosure { local, coupled };

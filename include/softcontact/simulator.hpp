@@ -190,6 +190,10 @@ private:
   void follow_ghosts();
   // Drops the meshes of the objects this rank neither owns nor ghosts (Scene::drop_meshes).
   void drop_unneeded_meshes();
+  /// The meshes of single-copy entries made by one rank (SceneObject::maker) go from that
+  /// rank to their owner, if another, before the World is built: the owner neither reads
+  /// the file again nor generates the primitive again. Collective.
+  void hand_over_made_meshes();
   double edge_statistics(double& mean) const;  // collective: median and mean edge
   void maybe_rebalance();
 

@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 #include "softcontact/error.hpp"
 #include "softcontact/mpi_util.hpp"
@@ -20,7 +21,7 @@ namespace {
 // 12 runs: one corotational box or slab of 6 thousand to 1.3 million tets on a plate on 1
 // rank, and two equal boxes on 1 and 2 ranks. Largest error 3.3 %.
 constexpr double kFixedBytes = 43.1 * 1024 * 1024;  // MPI, PETSc, HDF5, the program
-constexpr double kSceneBytesPerTet = 274;           // meshes every rank holds (single-copy entries)
+constexpr double kSceneBytesPerTet = 274;           // single-copy entries' meshes a rank made
 constexpr double kObjectBytes = 1500;               // what every rank knows of each object (shape, placement, layout)
 constexpr double kOwnedBytesPerTet = 120;           // state of the owned objects: forces,
 constexpr double kOwnedBytesPerVertex = 1514;       // collision, contact, output
@@ -47,20 +48,25 @@ double meminfo_field(const char* name) { return proc_field("/proc/meminfo", name
 
 MemoryEstimate estimate_memory(const Scene& scene, int nranks) {
   MemoryEstimate e;
-  std::int64_t big_t = 0, big_v = 0, everywhere_t = 0;
+  const std::int64_t n = std::max(nranks, 1);
+  std::int64_t big_t = 0, big_v = 0;
+  // Copies of multi-copy entries are held only where owned or ghosted (Scene::drop_meshes);
+  // the mesh of a single-copy entry by the rank that made it, object k's by rank k % n
+  // (docs/architecture.md, "Who reads which mesh file"), while the scene is read and the
+  // World built, and then dropped likewise: the largest rank's share counts towards the
+  // peak. (Files that several single-copy entries name are held by every rank; not
+  // counted so.)
+  std::vector<std::int64_t> made_t(static_cast<std::size_t>(n), 0);
   for (std::size_t k = 0; k < scene.objects.size(); ++k) {
     const ObjectShape& s = scene.shape(k);
     const auto t = static_cast<std::int64_t>(s.tets), v = static_cast<std::int64_t>(s.vertices);
-    // Copies of multi-copy entries are held only where owned or ghosted (Scene::drop_meshes);
-    // the meshes of single-copy entries by every rank while the scene is read and the
-    // World built, and then dropped likewise: they count towards the peak.
-    if (!scene.objects[k].placement.is_copy()) everywhere_t += t;
+    if (!scene.objects[k].placement.is_copy()) made_t[k % static_cast<std::size_t>(n)] += t;
     e.tets += t;
     e.vertices += v;
     big_t = std::max(big_t, t);
     big_v = std::max(big_v, v);
   }
-  const std::int64_t n = std::max(nranks, 1);
+  const std::int64_t everywhere_t = *std::max_element(made_t.begin(), made_t.end());
   e.rank_tets = std::max(big_t, (e.tets + n - 1) / n);
   e.rank_vertices = std::max(big_v, (e.vertices + n - 1) / n);
   e.fixed = kFixedBytes;

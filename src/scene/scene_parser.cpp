@@ -677,6 +677,7 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
           warnings[static_cast<std::size_t>(d.spec.index)] = rep.warnings;
         }
       }
+      if (shared) scene.objects[d.object].maker = static_cast<int>(d.object % static_cast<std::size_t>(limits.parts));
       if (d.spec.kinematic) continue;
       const double w = get_real(v, at + 22);
       parsed.frequency[d.object] = w;

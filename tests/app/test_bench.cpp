@@ -178,7 +178,7 @@ TEST(Bench, SetupStagesAddUpToTheSetup) {
   BenchOptions opt;
   opt.steps = 1;
   opt.quiet = true;
-  const std::vector<std::string> names = {"partition", "world", "edge statistics", "halo", "components",
+  const std::vector<std::string> names = {"partition", "hand-over", "world", "edge statistics", "halo", "components",
                                           "ghosts", "initial overlaps", "split plan", "start"};
   bool covered = false;
   std::string gaps;
