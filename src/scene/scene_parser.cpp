@@ -553,8 +553,9 @@ double get_real(const std::vector<double>& v, std::size_t at) {
   return x;
 }
 
-/// A single-copy entry whose mesh no other entry uses (its own file, or a primitive): one
-/// rank makes it (reads the file or generates it), the rank of its object's index k
+/// A single-copy entry whose mesh no multi-copy entry uses (a file that only single-copy
+/// entries name, or a primitive): one rank makes it (reads the file, once per rank for
+/// all the entries it makes from it, or generates it), the rank of its object's index k
 /// (k % parts), places it, measures it and computes its frequencies; the others learn
 /// those from that rank and make the mesh only if they come to need it (docs/architecture.md,
 /// "Who reads which mesh file").
@@ -584,11 +585,24 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
     const std::filesystem::path p = std::filesystem::path(rel).is_absolute() ? std::filesystem::path(rel) : dir / rel;
     return p.lexically_normal().string();
   };
-  // How many entries name each mesh file: one that only a single-copy entry uses is
-  // read by one rank (MadeOnce); the others are read once per rank and shared by entries.
-  std::map<std::string, int> uses;
-  for (const auto& n : list)
-    if (n.IsMap() && n["mesh"] && n["mesh"].IsScalar()) ++uses[mesh_key(n["mesh"].Scalar())];
+  // Which entries name each mesh file. A file that only single-copy entries name is read
+  // by the ranks that make them (MadeOnce; its reading's warnings belong to the first
+  // entry that names it); one that a multi-copy entry names is read once per rank and
+  // shared by its entries.
+  struct FileUse {
+    int entries = 0;
+    int first = -1;       ///< the first entry naming it
+    bool copies = false;  ///< a multi-copy entry names it
+  };
+  std::map<std::string, FileUse> uses;
+  for (std::size_t e = 0; e < list.size(); ++e) {
+    const YAML::Node n = list[e];
+    if (!n.IsMap() || !n["mesh"] || !n["mesh"].IsScalar()) continue;
+    FileUse& u = uses[mesh_key(n["mesh"].Scalar())];
+    ++u.entries;
+    if (u.first < 0) u.first = static_cast<int>(e);
+    u.copies = u.copies || static_cast<bool>(n["instances"]);
+  }
   const bool shared = limits.parts > 1 && static_cast<bool>(limits.sum);
   std::map<std::string, std::pair<TetMesh, MeshReport>> mesh_cache;  // a file instanced many times is read once
   std::vector<std::vector<std::string>> warnings(list.size());      // of reading each entry's mesh
@@ -709,16 +723,16 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
         const std::string rel = r.text(n["mesh"], "'mesh'");
         const std::filesystem::path p = std::filesystem::path(rel).is_absolute() ? std::filesystem::path(rel) : dir / rel;
         key = mesh_key(rel);
-        if (mesh_cache.find(key) == mesh_cache.end()) {
-          // The error_code overload: a name the file system refuses (too long, a component
-          // that is not a directory) is the scene's mistake, not an exception.
-          std::error_code ec;
-          const bool there = std::filesystem::exists(p, ec);
-          if (ec)
-            r.fail(n["mesh"], "cannot look up mesh file '" + key + "' of " + where + ": " + ec.message() +
-                                  " (expected the path of a .msh or .node mesh file)");
-          if (!there) r.fail(n["mesh"], "mesh file '" + key + "' of " + where + " does not exist");
-        }
+        // Looked up by every rank for every entry (the ranks read different files, so
+        // their caches differ). The error_code overload: a name the file system refuses
+        // (too long, a component that is not a directory) is the scene's mistake, not an
+        // exception.
+        std::error_code ec;
+        const bool there = std::filesystem::exists(p, ec);
+        if (ec)
+          r.fail(n["mesh"], "cannot look up mesh file '" + key + "' of " + where + ": " + ec.message() +
+                                " (expected the path of a .msh or .node mesh file)");
+        if (!there) r.fail(n["mesh"], "mesh file '" + key + "' of " + where + " does not exist");
         spec.remake = [key] { return read_mesh(key); };  // its warnings were given once, when first read
         make = [key](MeshReport* rep) { return read_mesh(key, rep); };
         spec.source = rel;
@@ -814,7 +828,7 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
         copies = static_cast<double>(spec.grid_count[0]) * spec.grid_count[1] * spec.grid_count[2];
       else if (spec.instancing == EntrySpec::Instancing::random)
         copies = spec.random_count;
-      if (spec.instancing == EntrySpec::Instancing::single && (key.empty() || uses[key] == 1)) {
+      if (spec.instancing == EntrySpec::Instancing::single && (key.empty() || !uses[key].copies)) {
         // Made by one rank; its vertices and tets count once every rank knows them (settle).
         budget.check(r, n, where, 1, 0, 0);
         budget.add(1, 0, 0);
@@ -827,9 +841,22 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
         d.mine = !shared || static_cast<int>(d.object % static_cast<std::size_t>(limits.parts)) == limits.part;
         if (d.mine) {
           try {
-            MeshReport rep;
-            d.spec.mesh = make(&rep);
-            warnings[static_cast<std::size_t>(spec.index)] = rep.warnings;
+            if (!key.empty() && uses[key].entries > 1) {
+              // Several single-copy entries: read once here for all this rank makes.
+              auto it = mesh_cache.find(key);
+              if (it == mesh_cache.end()) {
+                MeshReport rep;
+                TetMesh m = make(&rep);
+                it = mesh_cache.emplace(key, std::make_pair(std::move(m), rep)).first;
+              }
+              d.spec.mesh = it->second.first;
+              if (spec.index == uses[key].first)
+                warnings[static_cast<std::size_t>(spec.index)] = it->second.second.warnings;
+            } else {
+              MeshReport rep;
+              d.spec.mesh = make(&rep);
+              warnings[static_cast<std::size_t>(spec.index)] = rep.warnings;
+            }
             place(d.spec, n, scene.objects);
           } catch (const InputError&) {
             d.error = std::current_exception();  // reported by settle, at the first such entry

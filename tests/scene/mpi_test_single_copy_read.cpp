@@ -72,7 +72,8 @@ objects:
 )";
 
 // Object indices: 0 floor, 1 a, 2 b, 3 grid[0..3] (shared.msh), 7 ball, 8 c, 9 single
-// shared.msh, 10 ring.
+// shared.msh (named by the grid too: read by every rank), 10 ring, 11 b_again (b.msh
+// again: made by its own rank, b.msh's warning given once, at b).
 std::string good_scene() {
   return std::string(kHead) + R"(  - {name: floor, material: rubber, kinematic: true, primitive: {type: plate, size: [4, 2], thickness: 0.1, cells: [8, 4]}, transform: {translate: [0, 0, -0.05]}}
   - {name: a, material: rubber, mesh: a.msh, transform: {rotate: [10, 20, 30], translate: [-1.2, 0, 0.2]}}
@@ -82,6 +83,7 @@ std::string good_scene() {
   - {name: c, material: rubber, mesh: c.msh, transform: {translate: [1.2, 0, 0.2]}}
   - {name: single, material: rubber, mesh: shared.msh, transform: {translate: [1.5, 0.5, 0.2]}}
   - {name: ring, material: rubber, primitive: {type: torus, major_radius: 0.2, minor_radius: 0.05, resolution: 2}, transform: {translate: [0, 0.6, 0.2]}}
+  - {name: b_again, material: rubber, mesh: b.msh, transform: {translate: [-0.6, 0.6, 0.2]}}
 )";
 }
 
@@ -112,7 +114,7 @@ TEST(SingleCopyRead, OneRankMakesEachEntryAndEveryRankKnowsItToTheBit) {
   const Scene one = load_scene(path);
   const Scene shared = load_scene(path, copies_made_on_demand(MPI_COMM_WORLD));
   const int rank = comm_rank(MPI_COMM_WORLD), n = comm_size(MPI_COMM_WORLD);
-  ASSERT_EQ(one.objects.size(), 11u);
+  ASSERT_EQ(one.objects.size(), 12u);
   ASSERT_EQ(shared.objects.size(), one.objects.size());
   EXPECT_EQ(bits(shared.sim.dt), bits(one.sim.dt));
   ASSERT_EQ(one.warnings.size(), 2u) << "b.msh and c.msh warn when read";
@@ -120,7 +122,7 @@ TEST(SingleCopyRead, OneRankMakesEachEntryAndEveryRankKnowsItToTheBit) {
   EXPECT_NE(one.warnings[1].find("c.msh: warning: 1 vertices"), std::string::npos) << one.warnings[1];
   EXPECT_EQ(shared.warnings, one.warnings);
   EXPECT_EQ(shared.object_digests(rank, n, sum_world()), one.object_digests());
-  const std::vector<std::size_t> made_once = {0, 1, 2, 7, 8, 10};  // own file or primitive, one copy
+  const std::vector<std::size_t> made_once = {0, 1, 2, 7, 8, 10, 11};  // single-copy entries' files, primitives
   long held_here = 0;
   for (std::size_t k = 0; k < one.objects.size(); ++k) {
     SCOPED_TRACE(one.objects[k].name);
