@@ -718,7 +718,7 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
       spec.material = material_index(r, r.require(n, "material", where), scene.materials);
       if (n["mesh"] && n["primitive"]) r.fail(n["primitive"], where + " has both 'mesh' and 'primitive'; give one");
       std::string key;                                 // its mesh file
-      std::function<TetMesh(MeshReport*)> make;        // a primitive, generated
+      std::function<TetMesh(MeshReport*)> make;        // its mesh: the file read, or the primitive generated
       if (n["mesh"]) {
         const std::string rel = r.text(n["mesh"], "'mesh'");
         const std::filesystem::path p = std::filesystem::path(rel).is_absolute() ? std::filesystem::path(rel) : dir / rel;
