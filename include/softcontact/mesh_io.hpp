@@ -50,6 +50,10 @@ namespace softcontact {
 /// (inverted tets reoriented, unreferenced vertices removed, with warnings in *report).
 /// Throws InputError naming the file, the line (ASCII) or element, and what was expected.
 TetMesh read_mesh(const std::string& path, MeshReport* report = nullptr);
+
+/// How many mesh files this process has read (read_mesh calls, the failed ones included):
+/// the set-up's file reading per rank, for tests and diagnostics.
+std::uint64_t mesh_files_read();
 TetMesh read_gmsh(const std::string& path, MeshReport* report = nullptr);
 TetMesh read_tetgen(const std::string& path, MeshReport* report = nullptr);
 
@@ -58,6 +62,14 @@ TetMesh read_tetgen(const std::string& path, MeshReport* report = nullptr);
 TetMesh read_gmsh_bytes(std::string_view bytes, const std::string& name, MeshReport* report = nullptr);
 TetMesh read_tetgen_bytes(std::string_view node_bytes, std::string_view ele_bytes, const std::string& node_name,
                           const std::string& ele_name, MeshReport* report = nullptr);
+
+/// A mesh, and what reading it reported, as bytes to send between ranks: vertex and tet
+/// counts (64-bit), the points and tets as stored, then the report's two counts and its
+/// warnings (each a 64-bit length and the text). take_mesh_bytes reads one back from
+/// `at` (bitwise the mesh appended) and moves `at` past it; RuntimeFailure when the bytes
+/// end early.
+void append_mesh_bytes(std::vector<char>& bytes, const TetMesh& mesh, const MeshReport* report = nullptr);
+TetMesh take_mesh_bytes(const std::vector<char>& bytes, std::size_t& at, MeshReport* report = nullptr);
 
 enum class GmshFormat { v22_ascii, v22_binary, v41_ascii, v41_binary };
 

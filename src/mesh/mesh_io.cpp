@@ -1,5 +1,6 @@
 // Choosing a mesh reader by file extension, and the small text utilities the readers share.
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <charconv>
@@ -121,13 +122,84 @@ std::string lower_extension(const std::string& path) {
 
 }  // namespace
 
+namespace {
+std::atomic<std::uint64_t> files_read{0};
+}
+
+std::uint64_t mesh_files_read() { return files_read.load(); }
+
 TetMesh read_mesh(const std::string& path, MeshReport* report) {
+  ++files_read;
   const std::string ext = lower_extension(path);
   if (ext == ".msh") return read_gmsh(path, report);
   if (ext == ".node" || ext == ".ele") return read_tetgen(path, report);
   throw InputError(path, 0,
                    "unknown mesh format '" + (ext.empty() ? std::string("(no extension)") : ext) +
                        "' (expected .msh for Gmsh 2.2/4.1, or .node/.ele for TetGen)");
+}
+
+namespace {
+void put_bytes(std::vector<char>& b, const void* data, std::size_t n) {
+  const auto* c = static_cast<const char*>(data);
+  b.insert(b.end(), c, c + n);
+}
+void put_u64(std::vector<char>& b, std::uint64_t v) { put_bytes(b, &v, sizeof v); }
+void get_bytes(const std::vector<char>& b, std::size_t& at, void* data, std::size_t n) {
+  if (n > b.size() || at > b.size() - n) throw RuntimeFailure("a mesh's bytes end before the mesh does");
+  if (n > 0) std::memcpy(data, b.data() + at, n);
+  at += n;
+}
+std::uint64_t get_u64(const std::vector<char>& b, std::size_t& at) {
+  std::uint64_t v = 0;
+  get_bytes(b, at, &v, sizeof v);
+  return v;
+}
+// A count read back, checked against the bytes left (each item takes `item` bytes).
+std::size_t get_count(const std::vector<char>& b, std::size_t& at, std::size_t item) {
+  const std::uint64_t n = get_u64(b, at);
+  if (n > (b.size() - at) / item) throw RuntimeFailure("a mesh's bytes end before the mesh does");
+  return static_cast<std::size_t>(n);
+}
+}  // namespace
+
+void append_mesh_bytes(std::vector<char>& bytes, const TetMesh& mesh, const MeshReport* report) {
+  put_u64(bytes, mesh.num_vertices());
+  put_u64(bytes, mesh.num_tets());
+  put_bytes(bytes, mesh.points.data(), mesh.points.size() * sizeof(double));
+  put_bytes(bytes, mesh.tets.data(), mesh.tets.size() * sizeof(index_t));
+  const MeshReport none;
+  const MeshReport& r = report ? *report : none;
+  put_u64(bytes, r.reoriented_tets);
+  put_u64(bytes, r.unreferenced_vertices);
+  put_u64(bytes, r.warnings.size());
+  for (const std::string& w : r.warnings) {
+    put_u64(bytes, w.size());
+    put_bytes(bytes, w.data(), w.size());
+  }
+}
+
+TetMesh take_mesh_bytes(const std::vector<char>& bytes, std::size_t& at, MeshReport* report) {
+  TetMesh m;
+  const std::uint64_t nv64 = get_u64(bytes, at);
+  if (nv64 > bytes.size() / (3 * sizeof(double))) throw RuntimeFailure("a mesh's bytes end before the mesh does");
+  const auto nv = static_cast<std::size_t>(nv64);
+  const std::uint64_t nt = get_u64(bytes, at);
+  m.points.resize(3 * nv);
+  get_bytes(bytes, at, m.points.data(), m.points.size() * sizeof(double));
+  if (nt > (bytes.size() - at) / (4 * sizeof(index_t))) throw RuntimeFailure("a mesh's bytes end before the mesh does");
+  m.tets.resize(4 * static_cast<std::size_t>(nt));
+  get_bytes(bytes, at, m.tets.data(), m.tets.size() * sizeof(index_t));
+  MeshReport r;
+  r.reoriented_tets = static_cast<std::size_t>(get_u64(bytes, at));
+  r.unreferenced_vertices = static_cast<std::size_t>(get_u64(bytes, at));
+  const std::size_t nw = get_count(bytes, at, sizeof(std::uint64_t));
+  for (std::size_t i = 0; i < nw; ++i) {
+    std::string w(get_count(bytes, at, 1), '\0');
+    get_bytes(bytes, at, w.data(), w.size());
+    r.warnings.push_back(std::move(w));
+  }
+  if (report) *report = std::move(r);
+  return m;
 }
 
 }  // namespace softcontact

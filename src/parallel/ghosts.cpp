@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "softcontact/halo.hpp"
@@ -128,7 +129,7 @@ std::vector<int> objects_within_reach(MPI_Comm comm, const World& w, double skin
   MPI_Allgather(mine, 7, MPI_DOUBLE, hulls.data(), 7, MPI_DOUBLE, comm);
 
   // To each rank the own boxes its hull test lets through (a rank without objects gets none).
-  std::vector<std::vector<SentBox>> out(static_cast<std::size_t>(nranks));
+  std::vector<std::vector<char>> out(static_cast<std::size_t>(nranks));
   for (int r = 0; r < nranks; ++r) {
     const double* h = &hulls[7 * static_cast<std::size_t>(r)];
     if (r == rank || (!(h[0] <= h[3]) && h[6] != 0)) continue;
@@ -140,27 +141,17 @@ std::vector<int> objects_within_reach(MPI_Comm comm, const World& w, double skin
     for (std::size_t j = 0; j < own.size(); ++j) {
       if (own[j].empty()) continue;
       if (h[6] != 0 && !hull.within(own[j], skin)) continue;
-      out[static_cast<std::size_t>(r)].push_back({w.owned_objects[j], own[j]});
+      const SentBox b{w.owned_objects[j], own[j]};
+      const auto* c = reinterpret_cast<const char*>(&b);
+      out[static_cast<std::size_t>(r)].insert(out[static_cast<std::size_t>(r)].end(), c, c + sizeof b);
     }
   }
-  std::vector<int> scount(static_cast<std::size_t>(nranks)), rcount(static_cast<std::size_t>(nranks));
-  std::vector<int> sdisp(static_cast<std::size_t>(nranks)), rdisp(static_cast<std::size_t>(nranks));
-  std::vector<SentBox> sbuf;
-  for (int r = 0; r < nranks; ++r) {
-    const auto u = static_cast<std::size_t>(r);
-    sdisp[u] = static_cast<int>(sizeof(SentBox) * sbuf.size());
-    scount[u] = static_cast<int>(sizeof(SentBox) * out[u].size());
-    sbuf.insert(sbuf.end(), out[u].begin(), out[u].end());
+  std::vector<SentBox> rbuf;
+  for (const std::vector<char>& from : alltoallv_bytes(comm, out)) {
+    const std::size_t at = rbuf.size();
+    rbuf.resize(at + from.size() / sizeof(SentBox));
+    if (!from.empty()) std::memcpy(rbuf.data() + at, from.data(), from.size());
   }
-  MPI_Alltoall(scount.data(), 1, MPI_INT, rcount.data(), 1, MPI_INT, comm);
-  int total = 0;
-  for (int r = 0; r < nranks; ++r) {
-    rdisp[static_cast<std::size_t>(r)] = total;
-    total += rcount[static_cast<std::size_t>(r)];
-  }
-  std::vector<SentBox> rbuf(static_cast<std::size_t>(total) / sizeof(SentBox));
-  MPI_Alltoallv(sbuf.data(), scount.data(), sdisp.data(), MPI_BYTE, rbuf.data(), rcount.data(), rdisp.data(), MPI_BYTE,
-                comm);
   if (received) *received = static_cast<std::int64_t>(rbuf.size());
   std::sort(rbuf.begin(), rbuf.end(), [](const SentBox& a, const SentBox& b) { return a.object < b.object; });
   std::vector<int> ghosts;

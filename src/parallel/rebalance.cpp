@@ -248,22 +248,11 @@ World migrate_objects(MPI_Comm comm, const Scene& scene, const World& w,
     for (gid_t i = 0; i < w.layout[static_cast<std::size_t>(k)].vertex_count; ++i)
       out[static_cast<std::size_t>(to)].push_back(state_row(now, off + static_cast<std::size_t>(i)));
   }
-  std::vector<int> scount(nr), rcount(nr), sdisp(nr), rdisp(nr);
-  std::vector<char> sbuf;
-  for (std::size_t r = 0; r < nr; ++r) {
-    sdisp[r] = static_cast<int>(sbuf.size());
-    append_records(sbuf, out[r].data(), out[r].size());
-    scount[r] = static_cast<int>(sbuf.size()) - sdisp[r];
-  }
-  MPI_Alltoall(scount.data(), 1, MPI_INT, rcount.data(), 1, MPI_INT, comm);
-  int total = 0;
-  for (std::size_t r = 0; r < nr; ++r) {
-    rdisp[r] = total;
-    total += rcount[r];
-  }
-  std::vector<char> rbuf(static_cast<std::size_t>(total));
-  MPI_Alltoallv(sbuf.data(), scount.data(), sdisp.data(), MPI_BYTE, rbuf.data(), rcount.data(), rdisp.data(), MPI_BYTE,
-                comm);
+  std::vector<std::vector<char>> bytes(nr);
+  for (std::size_t r = 0; r < nr; ++r) append_records(bytes[r], out[r].data(), out[r].size());
+  std::vector<std::vector<VertexState>>().swap(out);
+  const std::vector<std::vector<char>> in = alltoallv_bytes(comm, bytes);
+  std::vector<std::vector<char>>().swap(bytes);
 
   World next_world = build_world(scene, next, rank);  // initial positions
   then = StepState{};
@@ -287,7 +276,7 @@ World migrate_objects(MPI_Comm comm, const Scene& scene, const World& w,
         s = state_row(now, static_cast<std::size_t>(w.vertex_offset[static_cast<std::size_t>(k)]) + static_cast<std::size_t>(i));
       } else {
         std::size_t& at = read[static_cast<std::size_t>(from)];
-        std::memcpy(&s, rbuf.data() + rdisp[static_cast<std::size_t>(from)] + at, sizeof(VertexState));
+        std::memcpy(&s, in[static_cast<std::size_t>(from)].data() + at, sizeof(VertexState));
         at += sizeof(VertexState);
       }
       for (std::size_t d = 0; d < 3; ++d) {

@@ -22,6 +22,7 @@
 #include "softcontact/ghosts.hpp"
 #include "softcontact/mpi_util.hpp"
 #include "softcontact/implicit_euler.hpp"
+#include "softcontact/mesh_io.hpp"
 #include "softcontact/motion.hpp"
 #include "softcontact/split_forces.hpp"
 #include "softcontact/stepper.hpp"
@@ -156,71 +157,38 @@ double Simulator::edge_statistics(double& mean) const {
 
 void Simulator::hand_over_made_meshes() {
   if (nranks_ == 1) return;
-  // Each message: per mesh its object (8 bytes), vertex and tet counts (8 each), then the
-  // points and the tets, in object order. A mesh that would take a message past an int's
-  // bytes stays behind: its owner makes it from its source as before.
+  // Each message: per mesh its object (8 bytes) and the mesh (append_mesh_bytes), in
+  // object order.
   std::vector<std::vector<char>> out(static_cast<std::size_t>(nranks_));
-  auto put = [](std::vector<char>& b, const void* data, std::size_t bytes) {
-    const auto* c = static_cast<const char*>(data);
-    b.insert(b.end(), c, c + bytes);
-  };
-  std::int64_t any = 0;
+  bool any = false;
   for (std::size_t k = 0; k < scene_.objects.size(); ++k) {
     const SceneObject& o = scene_.objects[k];
     if (o.maker < 0) continue;
-    any = 1;
+    any = true;
     const int owner = partition_[k];
     if (o.maker != rank_ || owner == rank_ || o.mesh.points.empty()) continue;
     std::vector<char>& b = out[static_cast<std::size_t>(owner)];
-    const std::uint64_t head[3] = {k, o.mesh.num_vertices(), o.mesh.num_tets()};
-    const std::size_t bytes = sizeof head + o.mesh.points.size() * sizeof(double) + o.mesh.tets.size() * sizeof(index_t);
-    if (b.size() + bytes > static_cast<std::size_t>(std::numeric_limits<int>::max())) continue;
-    put(b, head, sizeof head);
-    put(b, o.mesh.points.data(), o.mesh.points.size() * sizeof(double));
-    put(b, o.mesh.tets.data(), o.mesh.tets.size() * sizeof(index_t));
+    const std::uint64_t object = k;
+    const auto* c = reinterpret_cast<const char*>(&object);
+    b.insert(b.end(), c, c + sizeof object);
+    append_mesh_bytes(b, o.mesh);
   }
   if (!any) return;  // the same on every rank: the makers are the scene's
-  std::vector<int> scount(static_cast<std::size_t>(nranks_)), rcount(scount.size()), sdisp(scount.size()),
-      rdisp(scount.size());
-  for (std::size_t r = 0; r < out.size(); ++r) scount[r] = static_cast<int>(out[r].size());
-  MPI_Alltoall(scount.data(), 1, MPI_INT, rcount.data(), 1, MPI_INT, comm_);
-  std::vector<char> sbuf;
-  std::int64_t stotal = 0, rtotal = 0;
-  for (std::size_t r = 0; r < out.size(); ++r) {
-    sdisp[r] = static_cast<int>(stotal);
-    rdisp[r] = static_cast<int>(rtotal);
-    stotal += scount[r];
-    rtotal += rcount[r];
-  }
-  if (stotal > std::numeric_limits<int>::max() || rtotal > std::numeric_limits<int>::max())
-    throw RuntimeFailure("the meshes handed to their owners exceed 2 GiB on one rank");  // displacements are ints
-  sbuf.reserve(static_cast<std::size_t>(stotal));
-  for (auto& b : out) {
-    sbuf.insert(sbuf.end(), b.begin(), b.end());
-    std::vector<char>().swap(b);
-  }
-  std::vector<char> rbuf(static_cast<std::size_t>(rtotal));
-  MPI_Alltoallv(sbuf.data(), scount.data(), sdisp.data(), MPI_BYTE, rbuf.data(), rcount.data(), rdisp.data(), MPI_BYTE,
-                comm_);
-  std::vector<char>().swap(sbuf);
-  for (std::size_t at = 0; at < rbuf.size();) {
-    std::uint64_t head[3];
-    std::memcpy(head, rbuf.data() + at, sizeof head);
-    at += sizeof head;
-    const SceneObject& o = scene_.objects[head[0]];
-    TetMesh m;
-    m.points.resize(3 * head[1]);
-    m.tets.resize(4 * head[2]);
-    std::memcpy(m.points.data(), rbuf.data() + at, m.points.size() * sizeof(double));
-    at += m.points.size() * sizeof(double);
-    std::memcpy(m.tets.data(), rbuf.data() + at, m.tets.size() * sizeof(index_t));
-    at += m.tets.size() * sizeof(index_t);
-    // The maker's mesh is the one its digest was taken from: a difference is a fault here.
-    if (!o.placement.base || mesh_digest(m) != o.placement.base->digest())
-      throw RuntimeFailure("the mesh of object '" + o.name + "' handed over by rank " + std::to_string(o.maker) +
-                           " is not the one it read");
-    if (o.mesh.points.empty()) o.mesh = std::move(m);
-  }
+  const std::vector<std::vector<char>> in = alltoallv_bytes(comm_, out);
+  std::vector<std::vector<char>>().swap(out);
+  for (const std::vector<char>& rbuf : in)
+    for (std::size_t at = 0; at < rbuf.size();) {
+      std::uint64_t object = 0;
+      std::memcpy(&object, rbuf.data() + at, sizeof object);
+      at += sizeof object;
+      const SceneObject& o = scene_.objects[object];
+      TetMesh m = take_mesh_bytes(rbuf, at);
+      // The maker's mesh is the one its digest was taken from: a difference is a fault here.
+      if (!o.placement.base || mesh_digest(m) != o.placement.base->digest())
+        throw RuntimeFailure("the mesh of object '" + o.name + "' handed over by rank " + std::to_string(o.maker) +
+                             " is not the one it read");
+      if (o.mesh.points.empty()) o.mesh = std::move(m);
+    }
 }
 
 // A rank keeps the meshes of its own objects and its ghosts: a migration or the next
