@@ -5,10 +5,13 @@ plate. No box touches another, so each rank needs only the meshes of its own box
 the plate it ghosts): the benchmark of "the meshes of single-copy entries made again where
 needed" (docs/benchmarks.md).
 
-Usage: python3 tools/gen_singles.py N OUT.yaml [--files]   (N = 8: 64 boxes, 1.57M tets)
+Usage: python3 tools/gen_singles.py N OUT.yaml [--files [--pairs]]   (N = 8: 64 boxes, 1.57M tets)
 With --files each box is its own Gmsh 2.2 ASCII file next to OUT.yaml (singles/bK.msh, the
 same mesh in each, every file named by one entry), so that loading the scene reads 64
-files instead of generating 64 primitives.
+files instead of generating 64 primitives. With --pairs (N even) the boxes go two by two:
+N^2 / 2 entries, each a grid of two copies 2 m apart naming its own file, so that every
+rank needs every file's mesh (the benchmark of "each file of multi-copy entries read by
+one rank").
 Standard library only. Check the result with `softcontact check OUT.yaml`.
 """
 import itertools
@@ -55,11 +58,14 @@ def write_box_msh(path):
 
 
 def main():
-    args = [a for a in sys.argv[1:] if a != "--files"]
-    files = len(args) + 1 < len(sys.argv)
-    if len(args) != 2:
+    args = [a for a in sys.argv[1:] if a not in ("--files", "--pairs")]
+    files = "--files" in sys.argv[1:]
+    pairs = "--pairs" in sys.argv[1:]
+    if len(args) != 2 or (pairs and not files):
         sys.exit(__doc__)
     n = int(args[0])
+    if pairs and n % 2:
+        sys.exit("N must be even with --pairs")
     out_path = args[1]
     if files:
         d = os.path.join(os.path.dirname(os.path.abspath(out_path)), "singles")
@@ -80,12 +86,13 @@ def main():
     ]
     k = 0
     for i in range(n):
-        for j in range(n):
+        for j in range(0, n, 2 if pairs else 1):
             shape = (f"mesh: singles/b{k}.msh" if files else
                      "primitive: {type: box, size: [0.5, 0.5, 0.5], cells: [16, 16, 16]}")
             if files:
                 write_box_msh(os.path.join(d, f"b{k}.msh"))
-            lines.append(f"  - {{name: b{k}, material: rubber, {shape}, "
+            grid = "instances: {grid: {count: [1, 2, 1], spacing: [0, 2, 0]}}, " if pairs else ""
+            lines.append(f"  - {{name: b{k}, material: rubber, {shape}, {grid}"
                          f"transform: {{translate: [{-half + 2 * i}, {-half + 2 * j}, 1.0]}}}}")
             k += 1
     with open(out_path, "w") as f:

@@ -34,9 +34,11 @@ struct RestartPoint {
 };
 
 /// How `run` and `bench` load a scene on `comm`: copies of multi-copy entries placed,
-/// measured and let go (each rank makes again only those it owns or ghosts), and the
-/// stable step's per-object frequencies shared between the ranks (docs/architecture.md,
-/// "Who holds which mesh"). The SceneLimits' other fields keep their defaults.
+/// measured and let go (each rank makes again only those it owns or ghosts), the stable
+/// step's per-object frequencies shared between the ranks, and each mesh file of
+/// multi-copy entries read by one rank and broadcast (docs/architecture.md, "Who holds
+/// which mesh", "Who reads which mesh file"). The SceneLimits' other fields keep their
+/// defaults.
 SceneLimits copies_made_on_demand(MPI_Comm comm);
 
 /// Reads checkpoint `path` (a file, or a directory: its newest checkpoint) and the scene

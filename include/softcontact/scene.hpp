@@ -316,6 +316,13 @@ struct SceneLimits {
   /// every part's vector, concatenated in part order (an MPI_Allgatherv), so that every
   /// rank has every copy's placement, made exactly as on one rank. Unset: all placed here.
   std::function<std::vector<double>(const std::vector<double>&)> gather;
+  /// How ranks share reading the mesh files that multi-copy entries name (every rank
+  /// needs those meshes): the k-th such file in scene order is read by part k % parts,
+  /// and `broadcast(bytes, root)` gives part root's bytes to every rank (MPI_Bcast), the
+  /// mesh with its warnings, or that the read failed (then every rank reads the file
+  /// itself at its entry, to report the error as one rank would). Unset: every rank reads
+  /// them.
+  std::function<void(std::vector<char>&, int)> broadcast;
 };
 
 /// Reads, validates and instantiates a scene. Mesh paths are relative to the scene file.

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 #include <system_error>
 
@@ -610,6 +611,47 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
   std::vector<YAML::Node> pending_nodes;
   std::vector<MadeOnce> made;
   ParsedObjects parsed;
+  // The files that multi-copy entries name, each read by one rank (the k-th in order of
+  // the entries by part k % parts) and broadcast with its warnings: each rank reads its
+  // files first, then the broadcasts go in order. A file its rank could not read comes as
+  // one byte 0 (`unread`: file -> that rank); every rank then reads it at its first entry
+  // and reports the error there, as one rank alone would.
+  std::set<std::string> received;
+  std::map<std::string, int> unread;
+  if (shared && limits.broadcast) {
+    std::vector<std::pair<int, std::string>> files;  // (first entry, file)
+    for (const auto& [key, u] : uses)
+      if (u.copies) files.emplace_back(u.first, key);
+    std::sort(files.begin(), files.end());
+    std::vector<std::vector<char>> bytes(files.size());
+    const auto parts = static_cast<std::size_t>(limits.parts);
+    for (std::size_t j = 0; j < files.size(); ++j) {
+      if (static_cast<int>(j % parts) != limits.part) continue;
+      try {
+        MeshReport rep;
+        const TetMesh m = read_mesh(files[j].second, &rep);
+        bytes[j].assign(1, 1);
+        append_mesh_bytes(bytes[j], m, &rep);
+      } catch (const std::exception&) {
+        bytes[j].assign(1, 0);
+      }
+    }
+    for (std::size_t j = 0; j < files.size(); ++j) {
+      const std::string& key = files[j].second;
+      const int root = static_cast<int>(j % parts);
+      limits.broadcast(bytes[j], root);
+      if (!bytes[j].empty() && bytes[j][0] == 1) {
+        std::size_t at = 1;
+        MeshReport rep;
+        TetMesh m = take_mesh_bytes(bytes[j], at, &rep);
+        mesh_cache.emplace(key, std::make_pair(std::move(m), std::move(rep)));
+        received.insert(key);
+      } else {
+        unread[key] = root;
+      }
+      std::vector<char>().swap(bytes[j]);
+    }
+  }
   auto place = [&](const EntrySpec& spec, const YAML::Node& n, std::vector<SceneObject>& objects) {
     try {
       const std::size_t before = pending.size();
@@ -728,7 +770,7 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
         // (too long, a component that is not a directory) is the scene's mistake, not an
         // exception.
         std::error_code ec;
-        const bool there = std::filesystem::exists(p, ec);
+        const bool there = received.count(key) || std::filesystem::exists(p, ec);  // a broadcast file was there
         if (ec)
           r.fail(n["mesh"], "cannot look up mesh file '" + key + "' of " + where + ": " + ec.message() +
                                 " (expected the path of a .msh or .node mesh file)");
@@ -868,13 +910,18 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
         continue;
       }
       if (!key.empty()) {
+        // Read here, or received (the file's warnings belong to the first entry naming it:
+        // every entry naming this file comes this way).
         auto it = mesh_cache.find(key);
         if (it == mesh_cache.end()) {
           MeshReport rep;
           TetMesh m = read_mesh(key, &rep);
+          if (const auto u = unread.find(key); u != unread.end())
+            r.fail(n["mesh"], "mesh file '" + key + "' of " + where + " could not be read by rank " +
+                                  std::to_string(u->second) + ", but was here (did it change while the scene was read?)");
           it = mesh_cache.emplace(key, std::make_pair(std::move(m), rep)).first;
-          warnings[static_cast<std::size_t>(spec.index)] = rep.warnings;
         }
+        if (spec.index == uses[key].first) warnings[static_cast<std::size_t>(spec.index)] = it->second.second.warnings;
         spec.mesh = it->second.first;
       } else {
         spec.mesh = make(nullptr);

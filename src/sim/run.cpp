@@ -236,6 +236,7 @@ SceneLimits copies_made_on_demand(MPI_Comm comm) {
   l.parts = comm_size(comm);
   l.sum = sum_over(comm);
   l.gather = [comm](const std::vector<double>& mine) { return allgather_doubles(comm, mine); };
+  l.broadcast = [comm](std::vector<char>& bytes, int root) { broadcast_bytes(comm, root, bytes); };
   return l;
 }
 

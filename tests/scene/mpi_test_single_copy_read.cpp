@@ -12,6 +12,7 @@
 #include <fstream>
 #include <iostream>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -230,4 +231,103 @@ TEST(SingleCopyRead, TheMakerHandsItsMeshToTheOwner) {
   MPI_Allreduce(MPI_IN_PLACE, &handed, 1, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);
   if (n > 1) EXPECT_GT(handed, 0) << "no mesh went from its maker to another owner: the test proves nothing";
   if (rank == 0) std::cout << "[measured] single-copy meshes handed from their maker to their owner: " << handed << "\n";
+}
+
+namespace {
+
+// Three files named by multi-copy entries (SceneLimits::broadcast): g1.msh by a grid,
+// g2.msh (an inverted tet: warns) by random copies, g3.msh (a vertex no tet uses: warns)
+// by a single entry first, then by a grid. In order of their first entries they are files
+// 0, 1, 2: read by ranks 0, 1 % ranks, 2 % ranks.
+std::string copies_scene() {
+  const std::filesystem::path d = scene_dir();
+  if (comm_rank(MPI_COMM_WORLD) == 0) {
+    write_gmsh((d / "g1.msh").string(), make_box(0.2, 0.1, 0.1, 2, 1, 1), GmshFormat::v22_ascii);
+    TetMesh g2 = make_box(0.1, 0.1, 0.2, 1, 1, 2);
+    std::swap(g2.tets[0], g2.tets[1]);  // tet 0 inverted
+    write_gmsh((d / "g2.msh").string(), g2, GmshFormat::v41_binary);
+    TetMesh g3 = make_box(0.15, 0.15, 0.1, 2, 2, 1);
+    g3.points.insert(g3.points.end(), {3.0, 3.0, 3.0});
+    write_gmsh((d / "g3.msh").string(), g3, GmshFormat::v41_ascii);
+  }
+  return std::string(kHead) + R"(  - {name: floor, material: rubber, kinematic: true, primitive: {type: plate, size: [4, 2], thickness: 0.1, cells: [8, 4]}, transform: {translate: [0, 0, -0.05]}}
+  - {name: grid1, material: rubber, mesh: g1.msh, instances: {grid: {count: [2, 1, 1], spacing: [0.4, 0, 0]}}, transform: {translate: [-1, 0, 0.3]}}
+  - {name: rand, material: stiff, mesh: g2.msh, instances: {random: {count: 3, region: {min: [0.5, -0.5, 0.3], max: [1.5, 0.5, 0.8]}, seed: 4, rotate: true}}}
+  - {name: lone, material: rubber, mesh: g3.msh, transform: {translate: [0, 0.7, 0.3]}}
+  - {name: grid3, material: rubber, mesh: g3.msh, instances: {grid: {count: [1, 2, 1], spacing: [0, 0.3, 0]}}, transform: {translate: [0, -0.7, 0.3]}}
+)";
+}
+
+}  // namespace
+
+// Each file that multi-copy entries name is read by one rank and broadcast: the files read
+// over all ranks are the scene's three, each rank reading those of its turn, and every
+// rank ends with every object's counts, box, digest, mesh, the warnings and the stable
+// step of one rank reading every file itself.
+TEST(SharedFileRead, EachFileOfMultiCopyEntriesIsReadByOneRank) {
+  const int rank = comm_rank(MPI_COMM_WORLD), n = comm_size(MPI_COMM_WORLD);
+  const std::string path = write_scene("copies.yaml", copies_scene());
+  const std::uint64_t before_one = mesh_files_read();
+  const Scene one = load_scene(path);
+  EXPECT_EQ(mesh_files_read() - before_one, 3u) << "one rank alone reads each file once";
+  const std::uint64_t before = mesh_files_read();
+  const Scene shared = load_scene(path, copies_made_on_demand(MPI_COMM_WORLD));
+  const auto here = static_cast<long>(mesh_files_read() - before);
+  long want_here = 0;
+  for (int j = 0; j < 3; ++j) want_here += j % n == rank ? 1 : 0;
+  EXPECT_EQ(here, want_here) << "rank " << rank << " reads the files of its turn only";
+  long all = here;
+  MPI_Allreduce(MPI_IN_PLACE, &all, 1, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_EQ(all, 3) << "each file read once over all ranks";
+
+  ASSERT_EQ(one.objects.size(), 9u);
+  ASSERT_EQ(shared.objects.size(), one.objects.size());
+  ASSERT_EQ(one.warnings.size(), 2u) << "g2.msh and g3.msh warn when read";
+  EXPECT_NE(one.warnings[0].find("g2.msh: warning: 1 inverted"), std::string::npos) << one.warnings[0];
+  EXPECT_NE(one.warnings[1].find("g3.msh: warning: 1 vertices"), std::string::npos) << one.warnings[1];
+  EXPECT_EQ(shared.warnings, one.warnings);
+  EXPECT_EQ(bits(shared.sim.dt), bits(one.sim.dt));
+  EXPECT_EQ(shared.object_digests(rank, n, sum_world()), one.object_digests());
+  for (std::size_t k = 0; k < one.objects.size(); ++k) {
+    SCOPED_TRACE(one.objects[k].name);
+    const ObjectShape& want = one.shape(k);
+    const ObjectShape& got = shared.shape(k);
+    EXPECT_EQ(got.vertices, want.vertices);
+    EXPECT_EQ(got.tets, want.tets);
+    for (int d = 0; d < 3; ++d) {
+      EXPECT_EQ(bits(got.box.lo[d]), bits(want.box.lo[d]));
+      EXPECT_EQ(bits(got.box.hi[d]), bits(want.box.hi[d]));
+    }
+    EXPECT_EQ(shared.view_mesh(k).get().points, one.objects[k].mesh.points);
+    EXPECT_EQ(shared.view_mesh(k).get().tets, one.objects[k].mesh.tets);
+  }
+}
+
+// A file that multi-copy entries name and that cannot be read (broken, or missing), the
+// second such file (read by rank 1 of 2+): every rank stops with the message of one rank
+// alone; a YAML error before it is reported instead.
+TEST(SharedFileRead, AFileItsRankCannotReadStopsEveryRankWithOneRanksMessage) {
+  (void)copies_scene();  // writes g1.msh
+  const std::string head = std::string(kHead) +
+                           "  - {name: row, material: rubber, mesh: g1.msh, instances: {grid: {count: [2, 1, 1], "
+                           "spacing: [0.4, 0, 0]}}, transform: {translate: [-1, 0, 0.3]}}\n";
+  const std::string broken =
+      "  - {name: bad, material: rubber, mesh: broken.msh, instances: {grid: {count: [2, 1, 1], spacing: [0.4, 0, 0]}}}\n";
+  const std::string missing =
+      "  - {name: gone, material: rubber, mesh: missing.msh, instances: {grid: {count: [2, 1, 1], spacing: [0.4, 0, 0]}}}\n";
+  const std::string typo = "  - {name: typo, material: rubber, mesh: c.msh, velocty: [0, 0, 1]}\n";
+  const std::vector<std::tuple<std::string, std::string, std::string>> cases = {
+      {"grid_broken.yaml", head + broken, "broken.msh"},
+      {"grid_missing.yaml", head + missing, "does not exist"},
+      {"typo_then_grid_broken.yaml", head + typo + broken, "velocty"},
+  };
+  for (const auto& [name, text, expected] : cases) {
+    SCOPED_TRACE(name);
+    const std::string path = write_scene(name, text);
+    const std::string alone = error_of(path, SceneLimits{});
+    const std::string together = error_of(path, copies_made_on_demand(MPI_COMM_WORLD));
+    ASSERT_FALSE(alone.empty());
+    EXPECT_NE(alone.find(expected), std::string::npos) << alone;
+    EXPECT_EQ(together, alone);
+  }
 }
