@@ -66,6 +66,8 @@ struct BenchResult {
   std::vector<BenchStep> steps;  ///< the timed steps, identical on every rank
   double setup_seconds = 0;      ///< building the Simulator (max over ranks)
   double read_seconds = 0;       ///< reading the scene before it (max over ranks; 0: not measured)
+  std::int64_t files_read_max = 0;  ///< mesh files read by a rank from its start to the bench's end (max over ranks)
+  std::int64_t files_read_sum = 0;  ///< the same over all ranks
   /// The Simulator's construction by stage (Simulator::setup_stages), max and min over ranks.
   std::vector<SetupStage> setup_stages;
   double loop_seconds = 0;       ///< wall time of the timed steps, barrier to barrier

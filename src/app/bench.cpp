@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "softcontact/error.hpp"
+#include "softcontact/mesh_io.hpp"
 #include "softcontact/mpi_util.hpp"
 #include "softcontact/simulator.hpp"
 
@@ -253,6 +254,11 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
   MPI_Allreduce(MPI_IN_PLACE, setup_read, 2, MPI_DOUBLE, MPI_MAX, comm);
   r.setup_seconds = setup_read[0];
   r.read_seconds = setup_read[1];
+  std::int64_t files[2] = {static_cast<std::int64_t>(mesh_files_read()), static_cast<std::int64_t>(mesh_files_read())};
+  MPI_Allreduce(MPI_IN_PLACE, &files[0], 1, MPI_INT64_T, MPI_MAX, comm);
+  MPI_Allreduce(MPI_IN_PLACE, &files[1], 1, MPI_INT64_T, MPI_SUM, comm);
+  r.files_read_max = files[0];
+  r.files_read_sum = files[1];
   std::vector<double> stage_max, stage_min;  // the same stages on every rank, in the same order
   for (const auto& st : sim.setup_stages()) stage_max.push_back(st.second);
   stage_min = stage_max;
@@ -292,6 +298,8 @@ void print_bench_table(std::ostream& out, const BenchResult& r) {
       << "  " << r.steps.size() << " timed steps (t = " << num(first_t, 4) << " .. " << num(last_t, 4) << " s) after "
       << r.warmup << " warm-up steps; set-up " << fixed(r.setup_seconds, 2) << " s";
   if (r.read_seconds > 0) out << " after reading the scene in " << fixed(r.read_seconds, 2) << " s";
+  out << "; mesh files read: " << r.files_read_sum;
+  if (r.ranks > 1) out << " over all ranks, " << r.files_read_max << " by the busiest";
   out << "\n  set-up by stage (ms, max / min over ranks):";
   for (std::size_t i = 0; i < r.setup_stages.size(); ++i) {
     const SetupStage& st = r.setup_stages[i];
