@@ -36,7 +36,23 @@ std::vector<Box> object_boxes(MPI_Comm comm, const Scene& scene, const World& w)
 /// own boxes all-gathered, then each rank sends every other the own boxes within `skin`
 /// of its hull). Per rank: 56 bytes per hull, P integers, 56 bytes per box sent or
 /// received (`received`, when given, gets the number of boxes received). Collective.
-std::vector<int> objects_within_reach(MPI_Comm comm, const World& w, double skin, std::int64_t* received = nullptr);
+/// `owners`, when given, gets the rank each ghost's box came from (its owner), in the
+/// ghosts' order.
+std::vector<int> objects_within_reach(MPI_Comm comm, const World& w, double skin, std::int64_t* received = nullptr,
+                                      std::vector<int>* owners = nullptr);
+
+/// Whether object k's mesh is a single-copy entry's that this rank does not hold: a rank
+/// that comes to ghost or own it takes it from the rank that holds it
+/// (fetch_object_meshes) instead of reading its file again.
+bool needs_owner_mesh(const Scene& scene, int k);
+
+/// The meshes of objects `wanted` from the ranks `from` that hold them (their owners),
+/// held here afterwards (SceneObject::mesh), each checked against the digest of the mesh
+/// the scene first made. Two alltoallv_bytes: the ids out, the meshes back. Returns how
+/// many meshes came. Collective: every rank calls it together, with its own (maybe empty)
+/// lists.
+std::int64_t fetch_object_meshes(MPI_Comm comm, const Scene& scene, const std::vector<int>& wanted,
+                                 const std::vector<int>& from);
 
 class GhostSet {
 public:
@@ -83,6 +99,8 @@ public:
   /// or not), and the object boxes this rank received for them.
   std::int64_t reach_tests() const { return reach_tests_; }
   std::int64_t boxes_received() const { return boxes_received_; }
+  /// Single-copy meshes this rank took from their owners for new ghosts so far.
+  std::int64_t meshes_fetched() const { return meshes_fetched_; }
   /// Bytes this rank has received through its halos so far.
   std::int64_t bytes_received() const;
 
@@ -99,7 +117,7 @@ private:
   std::vector<double> x_at_build_;   // owned positions when the set was built
   std::unique_ptr<Halo> halo_;
   std::int64_t rebuilds_ = 0;
-  std::int64_t reach_tests_ = 0, boxes_received_ = 0;
+  std::int64_t reach_tests_ = 0, boxes_received_ = 0, meshes_fetched_ = 0;
   std::int64_t bytes_before_ = 0;    // of halos since replaced
 };
 

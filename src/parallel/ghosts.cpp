@@ -6,7 +6,9 @@
 #include <cstring>
 #include <limits>
 
+#include "softcontact/error.hpp"
 #include "softcontact/halo.hpp"
+#include "softcontact/mesh_io.hpp"
 #include "softcontact/mpi_util.hpp"
 
 namespace softcontact {
@@ -91,6 +93,49 @@ struct SentBox {
 
 }  // namespace
 
+bool needs_owner_mesh(const Scene& scene, int k) {
+  const SceneObject& o = scene.objects[static_cast<std::size_t>(k)];
+  return o.mesh.points.empty() && o.placement.kind == Placement::Kind::entry && o.placement.base != nullptr;
+}
+
+// Two exchanges: the object ids to their owners, then each owner's meshes back (an
+// object id and append_mesh_bytes each), checked against the digest of the mesh the scene
+// made first.
+std::int64_t fetch_object_meshes(MPI_Comm comm, const Scene& scene, const std::vector<int>& wanted,
+                                 const std::vector<int>& from) {
+  const auto nr = static_cast<std::size_t>(comm_size(comm));
+  std::vector<std::vector<char>> ask(nr);
+  for (std::size_t i = 0; i < wanted.size(); ++i) {
+    const std::int64_t k = wanted[i];
+    const auto* c = reinterpret_cast<const char*>(&k);
+    ask[static_cast<std::size_t>(from[i])].insert(ask[static_cast<std::size_t>(from[i])].end(), c, c + sizeof k);
+  }
+  const std::vector<std::vector<char>> asked = alltoallv_bytes(comm, ask);
+  std::vector<std::vector<char>> reply(nr);
+  for (std::size_t r = 0; r < nr; ++r)
+    for (std::size_t at = 0; at + sizeof(std::int64_t) <= asked[r].size(); at += sizeof(std::int64_t)) {
+      std::int64_t k = 0;
+      std::memcpy(&k, asked[r].data() + at, sizeof k);
+      reply[r].insert(reply[r].end(), asked[r].data() + at, asked[r].data() + at + sizeof k);
+      append_mesh_bytes(reply[r], scene.view_mesh(static_cast<std::size_t>(k)).get());
+    }
+  std::int64_t got = 0;
+  for (const std::vector<char>& b : alltoallv_bytes(comm, reply))
+    for (std::size_t at = 0; at < b.size();) {
+      std::int64_t k = 0;
+      if (b.size() - at < sizeof k) throw RuntimeFailure("fetch_object_meshes: a reply ends early");
+      std::memcpy(&k, b.data() + at, sizeof k);
+      at += sizeof k;
+      const SceneObject& o = scene.objects[static_cast<std::size_t>(k)];
+      TetMesh m = take_mesh_bytes(b, at);
+      if (mesh_digest(m) != o.placement.base->digest())
+        throw RuntimeFailure("the mesh of object '" + o.name + "' sent by its owner is not the one the scene made");
+      if (o.mesh.points.empty()) o.mesh = std::move(m);
+      ++got;
+    }
+  return got;
+}
+
 // Each rank's hull of its own boxes (and whether they are all finite) is all-gathered;
 // then each rank sends every other rank the boxes of its own objects that pass that
 // rank's hull test (the test the receiver would make first, and monotone in the owned
@@ -98,7 +143,8 @@ struct SentBox {
 // receiver tests them against its own boxes. An owned box that is not finite leaves its
 // rank with no hull test: it is sent every box, as the whole scene's test would try them
 // all. Counts by MPI_Alltoall (P integers per rank), boxes by MPI_Alltoallv.
-std::vector<int> objects_within_reach(MPI_Comm comm, const World& w, double skin, std::int64_t* received) {
+std::vector<int> objects_within_reach(MPI_Comm comm, const World& w, double skin, std::int64_t* received,
+                                      std::vector<int>* owners) {
   const int nranks = comm_size(comm), rank = comm_rank(comm);
   std::vector<Box> own(w.owned_objects.size(), Box::none());
   for (std::size_t j = 0; j < own.size(); ++j) {
@@ -146,19 +192,24 @@ std::vector<int> objects_within_reach(MPI_Comm comm, const World& w, double skin
       out[static_cast<std::size_t>(r)].insert(out[static_cast<std::size_t>(r)].end(), c, c + sizeof b);
     }
   }
-  std::vector<SentBox> rbuf;
-  for (const std::vector<char>& from : alltoallv_bytes(comm, out)) {
-    const std::size_t at = rbuf.size();
-    rbuf.resize(at + from.size() / sizeof(SentBox));
-    if (!from.empty()) std::memcpy(rbuf.data() + at, from.data(), from.size());
-  }
+  // The boxes received with the rank that sent each (its owner), by object.
+  std::vector<std::pair<SentBox, int>> rbuf;
+  const std::vector<std::vector<char>> in = alltoallv_bytes(comm, out);
+  for (std::size_t r = 0; r < in.size(); ++r)
+    for (std::size_t at = 0; at + sizeof(SentBox) <= in[r].size(); at += sizeof(SentBox)) {
+      SentBox b;
+      std::memcpy(&b, in[r].data() + at, sizeof b);
+      rbuf.emplace_back(b, static_cast<int>(r));
+    }
   if (received) *received = static_cast<std::int64_t>(rbuf.size());
-  std::sort(rbuf.begin(), rbuf.end(), [](const SentBox& a, const SentBox& b) { return a.object < b.object; });
+  std::sort(rbuf.begin(), rbuf.end(), [](const auto& a, const auto& b) { return a.first.object < b.first.object; });
   std::vector<int> ghosts;
-  for (const SentBox& b : rbuf)
+  if (owners) owners->clear();
+  for (const auto& [b, from] : rbuf)
     for (const Box& o : own)
       if (o.within(b.box, skin)) {
         ghosts.push_back(static_cast<int>(b.object));
+        if (owners) owners->push_back(from);
         break;
       }
   return ghosts;
@@ -169,11 +220,22 @@ std::vector<int> objects_within_reach(MPI_Comm comm, const World& w, double skin
 bool GhostSet::rebuild(World& w, bool force) {
   if (nranks_ == 1) return force;
   std::int64_t received = 0;
-  const std::vector<int> ghosts = objects_within_reach(comm_, w, skin_, &received);
+  std::vector<int> owners;
+  const std::vector<int> ghosts = objects_within_reach(comm_, w, skin_, &received, &owners);
   boxes_received_ += received;
   ++reach_tests_;
-  int changed = force || ghosts != w.ghost_objects ? 1 : 0;
-  MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_INT, MPI_LOR, comm_);
+  // Whether the set changed here, and whether some ghost's mesh must come from its owner
+  // (a single-copy mesh not held here): the same two answers on every rank.
+  std::vector<int> wanted, from;
+  for (std::size_t i = 0; i < ghosts.size(); ++i)
+    if (needs_owner_mesh(scene_, ghosts[i])) {
+      wanted.push_back(ghosts[i]);
+      from.push_back(owners[i]);
+    }
+  int flags[2] = {force || ghosts != w.ghost_objects ? 1 : 0, wanted.empty() ? 0 : 1};
+  MPI_Allreduce(MPI_IN_PLACE, flags, 2, MPI_INT, MPI_MAX, comm_);
+  const int changed = flags[0];
+  if (flags[1]) meshes_fetched_ += fetch_object_meshes(comm_, scene_, wanted, from);
   x_at_build_.assign(w.x.begin(), w.x.begin() + static_cast<std::ptrdiff_t>(3 * w.n_owned));
   steps_since_ = 0;
   if (!changed) {

@@ -93,6 +93,17 @@ void Simulator::prepare_split() {
     if (ghosts_->rebuilds() != split_ghost_generation_) share_ghost_holders();
     return;
   }
+  // Every rank computes a part of each split object's forces from its mesh: a
+  // single-copy mesh not held here comes from its owner (no rank reads the file again).
+  std::vector<int> wanted, from;
+  for (int k : split_candidates_)
+    if (needs_owner_mesh(scene_, k)) {
+      wanted.push_back(k);
+      from.push_back(partition_[static_cast<std::size_t>(k)]);
+    }
+  int fetch = wanted.empty() ? 0 : 1;
+  MPI_Allreduce(MPI_IN_PLACE, &fetch, 1, MPI_INT, MPI_MAX, comm_);
+  if (fetch) (void)fetch_object_meshes(comm_, scene_, wanted, from);
   std::vector<SplitObject> plan;
   for (int k : split_candidates_) {
     std::vector<std::int32_t>& parts = split_parts_[k];

@@ -210,12 +210,16 @@ objects:
 
 }  // namespace
 
-// Single-copy entries' meshes are dropped where neither owned nor ghosted and read again
-// from their file where a migration brings them (EntryMesh): positions and contact forces
-// are one rank's to the bit, before and after every object moves to the next rank.
-TEST(Distributed, SingleCopyMeshesReadAgainAfterAMigrationAreBitwiseOneRanks) {
+// Single-copy entries' meshes are dropped where neither owned nor ghosted, and a rank that
+// comes to ghost or own one (a migration brings it) takes it from the rank that holds it
+// (fetch_object_meshes): no rank reads a mesh file while the Simulator runs, and
+// positions and contact forces are one rank's to the bit, before and after every object
+// moves to the next rank.
+TEST(Distributed, SingleCopyMeshesFetchedAfterAMigrationAreBitwiseOneRanks) {
   const Scene& scene = file_singles();
   const int n = comm_size(MPI_COMM_WORLD);
+  (void)reference(scene);  // one rank's run, reading what it needs
+  const std::uint64_t reads_before = mesh_files_read();
   ASSERT_EQ(scene.objects.size(), 6u);
   for (std::size_t k = 0; k < 6; ++k) ASSERT_EQ(scene.objects[k].placement.kind, Placement::Kind::entry) << k;
   std::int64_t dropped_then_owned = 0, wrongly_held = 0;
@@ -243,11 +247,14 @@ TEST(Distributed, SingleCopyMeshesReadAgainAfterAMigrationAreBitwiseOneRanks) {
         }
       },
       nullptr, scene);
+  auto reads = static_cast<std::int64_t>(mesh_files_read() - reads_before);
+  MPI_Allreduce(MPI_IN_PLACE, &reads, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_EQ(reads, 0) << "a rank read a mesh file while the Simulator ran";
   MPI_Allreduce(MPI_IN_PLACE, &dropped_then_owned, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
   MPI_Allreduce(MPI_IN_PLACE, &wrongly_held, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
   EXPECT_EQ(wrongly_held, 0) << "a rank held a single-copy mesh it neither owned nor ghosted";
-  // On 2+ ranks some object moves to a rank that had dropped it: its file is read again
-  // (or its plate generated again).
+  // On 2+ ranks some object moves to a rank that had dropped it: its mesh comes from its
+  // old owner.
   if (n > 1) EXPECT_GT(dropped_then_owned, 0) << "no mesh was made again: the test proves nothing";
   if (comm_rank(MPI_COMM_WORLD) == 0)
     std::cout << "[measured] single-copy meshes made again for their new owner after the migration: " << dropped_then_owned << "\n";
