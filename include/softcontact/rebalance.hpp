@@ -37,14 +37,34 @@ RebalancePolicy rebalance_policy(const Simulation& sim);
 /// (CutSearch, partition.hpp): the same answer, METIS's part in a quarter of the time on
 /// 4 ranks (the object graph is still built by every rank, and at 4,040 objects it costs
 /// as much as the four METIS runs: docs/benchmarks.md).
-std::vector<int> initial_partition(const Scene& scene, int nranks, MPI_Comm comm = MPI_COMM_NULL);
+/// Which rank evaluates each part of each split object: per object of split_candidates
+/// (ascending), one rank per part (split_part_count parts, split_forces.hpp).
+using SplitHosts = std::vector<std::vector<int>>;
+
+/// `hosts` (optional): where the split objects' parts go (partition_at).
+std::vector<int> initial_partition(const Scene& scene, int nranks, MPI_Comm comm = MPI_COMM_NULL,
+                                   SplitHosts* hosts = nullptr);
 
 /// The same partition at the object boxes `boxes` (objects that have moved; a box with
 /// a non-finite corner counts as a point at the origin). Identical on every rank.
-/// `weights`: the nodes' weights (measured_weights); empty: the static work (tets, a
-/// tenth of the surface triangles for kinematic objects).
+/// `weights`: the nodes' weights (measured_weights: the objects', then the split objects'
+/// parts'); empty: the static work (tets, a tenth of the surface triangles for kinematic
+/// objects). A split object cut into fewer parts than ranks (split_part_count) adds its
+/// parts as nodes of that work (its tets / parts, or their measured share), at its box;
+/// `hosts` (optional) gets the ranks where they landed, so that the ranks that evaluate
+/// them are those the partition kept room on (one part per rank in rank order for an
+/// object with as many parts as ranks).
 std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes,
-                              int nranks, std::vector<std::int64_t> weights = {}, MPI_Comm comm = MPI_COMM_NULL);
+                              int nranks, std::vector<std::int64_t> weights = {}, MPI_Comm comm = MPI_COMM_NULL,
+                              SplitHosts* hosts = nullptr);
+
+/// Split hosts from a partition alone, where the partition that kept room for the parts
+/// is not at hand (a partition given to the Simulator, a restart, a migration by hand):
+/// one part per rank in rank order for an object with as many parts as ranks; with
+/// fewer, each part in turn to the rank with the least static work so far (its objects
+/// in `partition`, a split object at one share of its tets, then the parts given out
+/// before; ties: the lowest rank). Identical on every rank.
+SplitHosts split_hosts(const Scene& scene, const std::vector<int>& partition, int nranks);
 
 /// The CutSearch of the ranks of `comm` (none for MPI_COMM_NULL or one rank): each runs
 /// its candidates, the best is found by two MPI_Allreduce and broadcast by its rank.
@@ -67,12 +87,17 @@ std::int64_t static_work(const Scene& scene, std::size_t k);
 ///    the parts' predicted costs are exactly the measured seconds, and within a rank the
 ///    objects in contact weigh more than those at rest.
 ///
-/// When some rank measured no time (non-positive or not finite), every weight is the
-/// static work + 1 (no mixing of units). Identical on every rank given the same input
+/// The parts of split objects cut into fewer parts than ranks follow the objects (one
+/// weight each, after the objects', as partition_at takes them): their static work
+/// counts on the rank evaluating them (`hosts`, those of the run; empty: split_hosts of
+/// `part`) in step 1 and their share
+/// of its seconds is their weight. When some rank measured no time (non-positive or not
+/// finite), every weight is the static work + 1 (no mixing of units). Identical on every rank given the same input
 /// (arithmetic in object and rank order).
 std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector<int>& part,
                                            const std::vector<double>& rank_seconds,
-                                           const std::vector<std::int64_t>& contacts = {});
+                                           const std::vector<std::int64_t>& contacts = {},
+                                           const SplitHosts& hosts = {});
 
 /// This rank's figures since the last check: CPU seconds of forces, detection and depth
 /// (process CPU time, so that ranks sharing a core on an oversubscribed node are not
@@ -112,10 +137,11 @@ bool rebalance_wanted(const RebalancePolicy& policy, double imbalance, double cr
 /// boxes with the measured weights (measured_weights of every rank's seconds) and the new
 /// parts are relabelled to keep objects where they are (rank 0 logs it). Returns true
 /// with `next` set when it repartitioned (`next` may equal `current`). Every rank takes
-/// the same decision. Collective.
+/// the same decision. Collective. `hosts` (optional): the split objects' current hosts
+/// (empty: split_hosts of `current`), and on return with true the next ones.
 bool rebalance(MPI_Comm comm, const Scene& scene, const World& w,
                const std::vector<int>& current, const RebalancePolicy& policy, std::int64_t step, const RankWork& work,
-               std::vector<int>& next, RebalanceHistory& history);
+               std::vector<int>& next, RebalanceHistory& history, SplitHosts* hosts = nullptr);
 
 /// Moves every owned object whose rank changes from `current` to `next`, whole, with its
 /// state `now` (rows in w's owned order): returns the World of partition `next` (at the

@@ -201,8 +201,8 @@ struct Simulation {
   /// mutual records" (chess500 then ends with inverted tets).
   bool mutual_pairs = false;
   /// Objects with more tets than an even share of the scene's have their internal forces
-  /// evaluated by every rank that holds them (docs/architecture.md, "Objects split for
-  /// their forces"); the results do not change, only who does the work.
+  /// evaluated in parts over ranks (split_part_count; docs/architecture.md, "Objects split
+  /// for their forces"); the results do not change, only who does the work.
   bool split_objects = true;
   /// How the normal magnitudes of the collisions are chosen (docs/contact.md): each
   /// collision in closed form with shares of its vertices (local, the paper's structure),

@@ -116,7 +116,8 @@ public:
   const std::vector<int>& partition() const { return partition_; }
   /// Moves objects to the ranks `partition` names, with their state (positions, previous
   /// positions, velocities, friction anchors); the results of later steps do not change.
-  /// Collective, between steps.
+  /// The split objects' parts go to split_hosts of that partition. Collective, between
+  /// steps.
   void migrate(const std::vector<int>& partition);
 
   /// The state of this rank's owned vertices that the next step needs (positions,
@@ -148,8 +149,8 @@ public:
   void set_rebalance_policy(const RebalancePolicy& p) { rebalance_ = p; }
   /// Repartitions done by the rebalance policy so far.
   std::int64_t repartitions() const { return repartitions_; }
-  /// Objects whose forces are shared over ranks (split_forces.hpp), and the ranks sharing
-  /// each; the same on every rank.
+  /// Objects whose forces are shared over ranks (split_forces.hpp), and the most parts
+  /// (ranks evaluating them) of one: split_part_count; the same on every rank.
   int split_objects() const { return split_count_; }
   int split_ranks() const { return split_ranks_; }
   /// Ghost-set rebuilds so far (the halo grows and shrinks as objects move).
@@ -164,6 +165,8 @@ public:
   /// own.
   std::int64_t split_bytes_sent() const;
   std::int64_t split_helped_tets() const;
+  /// Tets of split objects this rank evaluates (its parts, its own objects' included).
+  std::int64_t split_evaluated_tets() const;
   /// This rank's parts of other ranks' split objects, and of those the ones that take the
   /// positions from their ghost rows (no positions sent to them).
   int split_helping_parts() const;
@@ -196,6 +199,7 @@ private:
   void hand_over_made_meshes();
   double edge_statistics(double& mean) const;  // collective: median and mean edge
   void maybe_rebalance();
+  void migrate(const std::vector<int>& partition, SplitHosts hosts);  // with the split objects' hosts of that partition
 
   MPI_Comm comm_;
   int rank_ = 0, nranks_ = 1;
@@ -223,11 +227,12 @@ private:
   double free_fall_speed_ = 0;
   bool free_fall_known_ = false;
   std::vector<int> split_candidates_;          // objects bigger than a share (split_forces.hpp)
+  SplitHosts split_hosts_;                     // per candidate: the rank of each part (rebalance.hpp)
   bool split_dirty_ = true;                    // the World was replaced since the split plan was made
-  int split_count_ = 0, split_ranks_ = 0;      // split objects, the ranks sharing each
+  int split_count_ = 0, split_ranks_ = 0;      // split objects, the most parts (ranks) of one
   std::int64_t split_doubles_before_ = 0;      // sent by the SplitForces replaced so far
   std::int64_t split_ghost_generation_ = -1;   // GhostSet::rebuilds() when the split's ghost holders were shared
-  std::map<int, std::vector<std::int32_t>> split_parts_;  // object -> its tets' parts (one per rank)
+  std::map<int, std::vector<std::int32_t>> split_parts_;  // object -> its tets' parts (split_part_count of them)
 };
 
 }  // namespace softcontact

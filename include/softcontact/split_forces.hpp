@@ -2,8 +2,9 @@
 // Objects split over ranks for their internal forces (docs/architecture.md, "Objects
 // split for their forces"). An object with more tets than an even share of the scene's
 // (a soft floor under a pile, a membrane) would set the pace of the rank that owns it.
-// Its tets are cut into one part per rank (METIS on the object's dual graph); each rank
-// evaluates its part's tets at the positions (and velocities) the owner sends it, and
+// Its tets are cut into parts (METIS on the object's dual graph; one per rank, or fewer
+// when the object is only a few shares: split_part_count); each part's rank
+// evaluates its tets at the positions (and velocities) the owner sends it, and
 // sends the owner, per vertex, either the sum of its corner forces (a vertex whose tets
 // are all in the part) or each corner force (a vertex on a cut). The owner folds every
 // vertex's corner forces in ascending tet global id, as ElasticForces::add_forces does on
@@ -38,8 +39,16 @@ bool split_candidate(const Scene& scene, std::size_t k, int nranks);
 std::vector<char> split_mask(const Scene& scene, int nranks);
 /// Every split candidate, ascending.
 std::vector<int> split_candidates(const Scene& scene, int nranks);
+/// How many parts a split object of `tets` tets is cut into on `nranks` ranks: parts of
+/// about half an even share of the scene's `total_tets` (2 tets nranks / total_tets,
+/// rounded up), at most one per rank. On up to 3 ranks, and whenever the object holds
+/// more than 3/8 of the scene on 4, that is one part per rank; a membrane of 1 % on 1,000
+/// ranks is cut into 20 parts, not 1,000, so its owner exchanges with 20 ranks.
+int split_part_count(std::int64_t tets, std::int64_t total_tets, int nranks);
 
-/// One split object: its owner and the part (= the rank evaluating it) of each of its tets.
+/// One split object: its owner and the rank evaluating each of its tets (its part's host,
+/// split_hosts in rebalance.hpp). Empty `tet_part` on a rank that neither owns the
+/// object nor evaluates any of it: that rank takes no part and needs no mesh.
 struct SplitObject {
   int object = 0;
   int owner = 0;
@@ -93,6 +102,8 @@ public:
   std::int64_t doubles_sent() const { return doubles_sent_; }
   /// Tets this rank evaluates for objects it does not own.
   std::int64_t helped_tets() const { return helped_tets_; }
+  /// Tets this rank evaluates for split objects, its own included.
+  std::int64_t evaluated_tets() const { return evaluated_tets_; }
   /// Wall and process CPU seconds spent in add()'s exchanges so far (waiting for the
   /// other parts is communication, not force work: the rebalance must not charge it).
   double exchange_wall_seconds() const { return exchange_wall_; }
@@ -112,7 +123,7 @@ private:
   std::vector<std::vector<double>> forces_in_;  // evaluate(): each peer's forces for the owned objects
   bool evaluated_ = false;
   std::int64_t doubles_sent_ = 0;
-  std::int64_t helped_tets_ = 0;
+  std::int64_t helped_tets_ = 0, evaluated_tets_ = 0;
   double exchange_wall_ = 0, exchange_cpu_ = 0;
 };
 

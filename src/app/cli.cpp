@@ -357,7 +357,16 @@ void print_split_objects(const Scene& s, int ranks, std::ostream& out) {
     out << (i ? ", " : "") << "'" << s.objects[split[i]].name << "' (" << s.shape(split[i]).tets << " tets, "
         << share(split[i]) << " of the scene)";
   if (!split.empty()) {
-    out << " on " << ranks << " ranks\n";
+    out << " on " << ranks << " ranks";
+    // An object cut into fewer parts than ranks (split_part_count): how many.
+    const char* sep = "; ";
+    for (std::size_t k : split) {
+      const int parts = split_part_count(static_cast<std::int64_t>(s.shape(k).tets), static_cast<std::int64_t>(s.num_tets()), ranks);
+      if (parts >= ranks) continue;
+      out << sep << "'" << s.objects[k].name << "' in " << parts << " parts";
+      sep = ", ";
+    }
+    out << "\n";
     return;
   }
   out << "none on " << ranks << " rank(s)";
@@ -461,7 +470,8 @@ int cmd_run(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) 
     {
       out << "ranks:       " << r.ghost_rebuilds << " ghost-set rebuilds, " << r.repartitions << " repartitions";
       if (r.split_objects > 0)
-        out << ", " << r.split_objects << " object(s) split for their forces over " << r.split_ranks << " ranks";
+        out << ", " << r.split_objects << " object(s) split for their forces over " << r.split_ranks
+            << (r.split_ranks < size ? " of " + std::to_string(size) : std::string()) << " ranks";
       out << "\n";
     }
     if (!r.verify_json.empty()) out << "verify:      " << r.verify_json << "\n";

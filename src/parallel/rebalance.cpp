@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <numeric>
 #include <iostream>
 
 #include "softcontact/error.hpp"
@@ -28,11 +29,68 @@ std::int64_t shared_work(const Scene& scene, std::size_t k, int nranks, const st
   const std::int64_t w = static_work(scene, k);
   return split[k] ? w / nranks : w;
 }
+
+// The parts of the split objects cut into fewer parts than ranks (split_part_count), in
+// split_hosts' order: each is a node of the partition of its own, of its share of the
+// object's work, so that the ranks that will evaluate the parts keep room for them. (An
+// object with a part per rank loads every rank alike: no nodes.)
+struct PartNodes {
+  std::vector<std::size_t> object;  // per node: the split object
+  std::vector<std::int64_t> work;   // per node: the object's static work / its parts
+};
+
+PartNodes part_nodes(const Scene& scene, int nranks, const std::vector<char>& split) {
+  PartNodes n;
+  if (nranks <= 1) return n;
+  const auto total = static_cast<std::int64_t>(scene.num_tets());
+  for (std::size_t k = 0; k < split.size(); ++k) {
+    if (!split[k]) continue;
+    const int parts = split_part_count(static_cast<std::int64_t>(scene.shape(k).tets), total, nranks);
+    if (parts >= nranks) continue;
+    for (int i = 0; i < parts; ++i) {
+      n.object.push_back(k);
+      n.work.push_back(static_work(scene, k) / parts);
+    }
+  }
+  return n;
+}
 }  // namespace
+
+SplitHosts split_hosts(const Scene& scene, const std::vector<int>& partition, int nranks) {
+  const std::size_t no = scene.objects.size();
+  if (partition.size() != no)
+    throw RuntimeFailure("split_hosts: a partition of " + std::to_string(partition.size()) + " objects for " +
+                         std::to_string(no));
+  SplitHosts hosts;
+  if (nranks <= 1) return hosts;
+  const std::vector<char> split = split_mask(scene, nranks);
+  std::vector<std::int64_t> load(static_cast<std::size_t>(nranks), 0);
+  for (std::size_t k = 0; k < no; ++k) {
+    if (partition[k] < 0 || partition[k] >= nranks)
+      throw RuntimeFailure("split_hosts: object " + std::to_string(k) + " on rank " + std::to_string(partition[k]));
+    load[static_cast<std::size_t>(partition[k])] += shared_work(scene, k, nranks, split);
+  }
+  const auto total = static_cast<std::int64_t>(scene.num_tets());
+  for (std::size_t k = 0; k < no; ++k) {
+    if (!split[k]) continue;
+    const int parts = split_part_count(static_cast<std::int64_t>(scene.shape(k).tets), total, nranks);
+    std::vector<int> h(static_cast<std::size_t>(parts));
+    if (parts >= nranks) {
+      std::iota(h.begin(), h.end(), 0);
+    } else {
+      for (int& r : h) {
+        r = static_cast<int>(std::min_element(load.begin(), load.end()) - load.begin());  // the first: lowest rank
+        load[static_cast<std::size_t>(r)] += static_work(scene, k) / parts;
+      }
+    }
+    hosts.push_back(std::move(h));
+  }
+  return hosts;
+}
 
 std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector<int>& part,
                                            const std::vector<double>& rank_seconds,
-                                           const std::vector<std::int64_t>& contacts) {
+                                           const std::vector<std::int64_t>& contacts, const SplitHosts& hosts_in) {
   const std::size_t no = scene.objects.size();
   if (part.size() != no) throw RuntimeFailure("measured_weights: the partition has the wrong size");
   if (!contacts.empty() && contacts.size() != no) throw RuntimeFailure("measured_weights: the contacts have the wrong size");
@@ -40,6 +98,8 @@ std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector
   const int nranks = std::max(1, static_cast<int>(rank_seconds.size()));
   const std::vector<char> split = split_mask(scene, nranks);
   for (std::size_t k = 0; k < no; ++k) w[k] = shared_work(scene, k, nranks, split) + 1;
+  const PartNodes nodes = part_nodes(scene, nranks, split);
+  for (std::int64_t p : nodes.work) w.push_back(p + 1);
   bool measured = !rank_seconds.empty();
   for (double t : rank_seconds) measured = measured && std::isfinite(t) && t > 0;
   if (!measured) return w;
@@ -52,6 +112,16 @@ std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector
     S[r] += static_cast<double>(w[k]);
     C[r] += contact(k);
   }
+  // The parts of split objects on the ranks that evaluated them, in part_nodes' order.
+  std::vector<std::size_t> host;
+  for (const std::vector<int>& h : hosts_in.empty() ? split_hosts(scene, part, nranks) : hosts_in)
+    if (h.size() < nr)
+      for (int r : h) {
+        if (r < 0 || static_cast<std::size_t>(r) >= nr) throw RuntimeFailure("measured_weights: a split part on rank " + std::to_string(r));
+        host.push_back(static_cast<std::size_t>(r));
+      }
+  if (host.size() != nodes.work.size()) throw RuntimeFailure("measured_weights: the split objects' parts do not match");
+  for (std::size_t j = 0; j < host.size(); ++j) S[host[j]] += static_cast<double>(w[no + j]);
   // Least squares for T = a S + b C over the ranks (normal equations, 2 x 2).
   double ss = 0, sc = 0, cc = 0, st = 0, ct = 0;
   for (std::size_t r = 0; r < nr; ++r) {
@@ -67,15 +137,19 @@ std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector
     a = ss > 0 ? st / ss : 1;
     b = 0;
   }
-  std::vector<double> model(no), rank_model(nr, 0.0);
-  for (std::size_t k = 0; k < no; ++k) {
-    model[k] = a * static_cast<double>(w[k]) + b * contact(k);
-    rank_model[static_cast<std::size_t>(part[k])] += model[k];
+  // Nodes: the objects, then the parts (no contacts of their own: the owner's detection
+  // finds the object's).
+  const std::size_t nn = w.size();
+  auto rank_of = [&](std::size_t j) { return j < no ? static_cast<std::size_t>(part[j]) : host[j - no]; };
+  std::vector<double> model(nn), rank_model(nr, 0.0);
+  for (std::size_t j = 0; j < nn; ++j) {
+    model[j] = a * static_cast<double>(w[j]) + (j < no ? b * contact(j) : 0.0);
+    rank_model[rank_of(j)] += model[j];
   }
-  for (std::size_t k = 0; k < no; ++k) {
-    const auto r = static_cast<std::size_t>(part[k]);
-    const double us = rank_model[r] > 0 ? 1e6 * rank_seconds[r] * model[k] / rank_model[r] : 1;
-    w[k] = std::max<std::int64_t>(1, std::llround(std::min(us, 1e15)));
+  for (std::size_t j = 0; j < nn; ++j) {
+    const std::size_t r = rank_of(j);
+    const double us = rank_model[r] > 0 ? 1e6 * rank_seconds[r] * model[j] / rank_model[r] : 1;
+    w[j] = std::max<std::int64_t>(1, std::llround(std::min(us, 1e15)));
   }
   return w;
 }
@@ -95,7 +169,7 @@ std::int64_t object_work(const Scene& scene, std::size_t k) { return static_work
 // Keep objects where they are as far as the new parts allow: relabel each new part as the
 // old rank it shares the most work with (greedy, heaviest overlaps first).
 void keep_objects_in_place(const Scene& scene, const std::vector<int>& current,
-                           int nranks, std::vector<int>& next) {
+                           int nranks, std::vector<int>& next, SplitHosts* hosts) {
   const std::size_t no = scene.objects.size();
   const auto nr = static_cast<std::size_t>(nranks);
   std::vector<std::vector<std::int64_t>> overlap(nr, std::vector<std::int64_t>(nr, 0));
@@ -116,6 +190,10 @@ void keep_objects_in_place(const Scene& scene, const std::vector<int>& current,
     taken[br] = 1;
   }
   for (int& p : next) p = label[static_cast<std::size_t>(p)];
+  if (hosts)
+    for (std::vector<int>& h : *hosts)
+      if (h.size() < nr)  // (a part per rank stays in rank order)
+        for (int& p : h) p = label[static_cast<std::size_t>(p)];
 }
 
 // Per vertex of a migrating object: what the next steps need (a StepState row).
@@ -158,31 +236,60 @@ CutSearch shared_cut_search(MPI_Comm comm) {
 }
 
 std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes, int nranks,
-                              std::vector<std::int64_t> weights, MPI_Comm comm) {
+                              std::vector<std::int64_t> weights, MPI_Comm comm, SplitHosts* hosts) {
   const std::size_t no = scene.objects.size();
+  if (hosts) hosts->clear();
   if (nranks <= 1) return std::vector<int>(no, 0);
-  if (!weights.empty() && weights.size() != no) throw RuntimeFailure("partition_at: the weights have the wrong size");
+  const std::vector<char> split = split_mask(scene, nranks);
+  const PartNodes nodes = part_nodes(scene, nranks, split);
+  const std::size_t nn = no + nodes.object.size();
+  if (!weights.empty() && weights.size() != nn)
+    throw RuntimeFailure("partition_at: " + std::to_string(weights.size()) + " weights for " + std::to_string(no) +
+                         " objects and " + std::to_string(nodes.object.size()) + " parts of split objects");
   PartitionInput in;
   const bool tet_weights = weights.empty();
   in.weight = std::move(weights);
-  const std::vector<char> split = tet_weights ? split_mask(scene, nranks) : std::vector<char>();
   for (std::size_t k = 0; k < no; ++k) {
     if (tet_weights) in.weight.push_back(shared_work(scene, k, nranks, split));
     for (int d = 0; d < 3; ++d)
       if (!std::isfinite(boxes[k].lo[d]) || !std::isfinite(boxes[k].hi[d]) || !(boxes[k].lo[d] <= boxes[k].hi[d]))
         boxes[k].lo[d] = boxes[k].hi[d] = 0;  // a blown-up object
   }
+  in.reach = median_object_size(boxes);
+  // The parts of split objects as nodes at their object's box: near what touches it, so
+  // that their ranks tend to hold it as a ghost (and read its positions there).
+  boxes.reserve(nn);
+  for (std::size_t j = 0; j < nodes.object.size(); ++j) {
+    if (tet_weights) in.weight.push_back(nodes.work[j]);
+    const Box b = boxes[nodes.object[j]];
+    boxes.push_back(b);
+  }
   in.box = std::move(boxes);
-  in.reach = median_object_size(in.box);
-  return partition_objects(in, nranks, shared_cut_search(comm));
+  std::vector<int> part = partition_objects(in, nranks, shared_cut_search(comm));
+  if (hosts) {
+    // Per candidate: its part nodes' ranks, or every rank in order.
+    std::size_t j = 0;
+    for (std::size_t k = 0; k < no; ++k) {
+      if (!split[k]) continue;
+      std::vector<int> h;
+      while (j < nodes.object.size() && nodes.object[j] == k) h.push_back(part[no + j++]);
+      if (h.empty()) {
+        h.resize(static_cast<std::size_t>(nranks));
+        std::iota(h.begin(), h.end(), 0);
+      }
+      hosts->push_back(std::move(h));
+    }
+  }
+  part.resize(no);
+  return part;
 }
 
 bool rebalance_due(const RebalancePolicy& policy, std::int64_t step) {
   return policy.check_every > 0 && step > 0 && step % policy.check_every == 0;
 }
 
-std::vector<int> initial_partition(const Scene& scene, int nranks, MPI_Comm comm) {
-  return partition_at(scene, scene_boxes(scene), nranks, {}, comm);
+std::vector<int> initial_partition(const Scene& scene, int nranks, MPI_Comm comm, SplitHosts* hosts) {
+  return partition_at(scene, scene_boxes(scene), nranks, {}, comm, hosts);
 }
 
 bool rebalance_wanted(const RebalancePolicy& policy, double imbalance, double cross, RebalanceHistory& h) {
@@ -197,7 +304,7 @@ bool rebalance_wanted(const RebalancePolicy& policy, double imbalance, double cr
 
 bool rebalance(MPI_Comm comm, const Scene& scene, const World& w,
                const std::vector<int>& current, const RebalancePolicy& policy, std::int64_t step, const RankWork& work,
-               std::vector<int>& next, RebalanceHistory& history) {
+               std::vector<int>& next, RebalanceHistory& history, SplitHosts* hosts) {
   const int nranks = comm_size(comm);
   if (nranks == 1 || !rebalance_due(policy, step)) return false;
   double local[3] = {work.seconds, static_cast<double>(work.cross), static_cast<double>(work.collisions)};
@@ -219,10 +326,10 @@ bool rebalance(MPI_Comm comm, const Scene& scene, const World& w,
     std::vector<std::int64_t> contacts(scene.objects.size(), 0);
     if (work.contacts.size() == contacts.size()) contacts = work.contacts;
     MPI_Allreduce(MPI_IN_PLACE, contacts.data(), static_cast<int>(contacts.size()), MPI_INT64_T, MPI_SUM, comm);
-    weights = measured_weights(scene, current, seconds, contacts);
+    weights = measured_weights(scene, current, seconds, contacts, hosts ? *hosts : SplitHosts());
   }
-  next = partition_at(scene, object_boxes(comm, scene, w), nranks, std::move(weights), comm);
-  keep_objects_in_place(scene, current, nranks, next);
+  next = partition_at(scene, object_boxes(comm, scene, w), nranks, std::move(weights), comm, hosts);
+  keep_objects_in_place(scene, current, nranks, next, hosts);
   std::int64_t moved = 0;
   for (std::size_t k = 0; k < next.size(); ++k) moved += next[k] != current[k] ? 1 : 0;
   if (comm_rank(comm) == 0)

@@ -3,7 +3,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <ctime>
+#include <limits>
 #include <string>
 
 #include "softcontact/error.hpp"
@@ -39,6 +41,19 @@ std::vector<int> split_candidates(const Scene& scene, int nranks) {
   for (std::size_t k = 0; k < mask.size(); ++k)
     if (mask[k]) out.push_back(static_cast<int>(k));
   return out;
+}
+
+int split_part_count(std::int64_t tets, std::int64_t total_tets, int nranks) {
+  if (nranks <= 1 || tets <= 0 || total_tets <= 0) return 1;
+  // ceil(2 tets nranks / total): exact in 64-bit integers where the product fits (any
+  // object below 2^62 / nranks tets), else in long double (the same on every rank).
+  const std::int64_t twice = 2 * std::min(tets, total_tets);
+  if (twice <= std::numeric_limits<std::int64_t>::max() / nranks) {
+    const std::int64_t t = twice * nranks;
+    return static_cast<int>(std::min<std::int64_t>(t / total_tets + (t % total_tets != 0 ? 1 : 0), nranks));
+  }
+  const long double parts = std::ceil(static_cast<long double>(twice) * nranks / static_cast<long double>(total_tets));
+  return parts >= static_cast<long double>(nranks) ? nranks : static_cast<int>(parts);
 }
 
 namespace {
@@ -121,6 +136,15 @@ struct SplitForces::Merge {
 SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitObject> plan) {
   for (SplitObject& so : plan) {
     const auto k = static_cast<std::size_t>(so.object);
+    if (so.tet_part.empty() && so.owner != w.rank) {
+      // No part of it here: an idle entry (the plan's order), no mesh needed.
+      auto p = std::make_unique<Part>();
+      p->object = so.object;
+      p->owner = so.owner;
+      p->mini.rank = w.rank;
+      parts_.push_back(std::move(p));
+      continue;
+    }
     const Scene::MeshView view = scene.view_mesh(k);
     const TetMesh& m = view.get();
     const ObjectLayout& L = w.layout[k];
@@ -176,6 +200,7 @@ SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitOb
     mw.vertex_offset.assign(w.vertex_offset.size(), -1);
     mw.vertex_offset[k] = 0;
     if (mw.m_owned > 0) p->forces = std::make_unique<ElasticForces>(scene, mw);
+    evaluated_tets_ += static_cast<std::int64_t>(mw.m_owned);
     if (!own) {
       helped_tets_ += static_cast<std::int64_t>(mw.m_owned);
       if (mw.m_owned > 0) peers_.push_back(so.owner);

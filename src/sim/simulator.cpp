@@ -39,12 +39,14 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
     t = now;
   };
   rebalance_ = rebalance_policy(scene.sim);
-  partition_ = partition.empty() ? initial_partition(scene, nranks_, comm_) : std::move(partition);
+  const bool given = !partition.empty();
+  partition_ = given ? std::move(partition) : initial_partition(scene, nranks_, comm_, &split_hosts_);
   if (partition_.size() != scene.objects.size())
     throw RuntimeFailure("Simulator: the partition names " + std::to_string(partition_.size()) + " objects, the scene has " +
                          std::to_string(scene.objects.size()));
   for (int r : partition_)
     if (r < 0 || r >= nranks_) throw RuntimeFailure("Simulator: the partition names rank " + std::to_string(r));
+  if (given) split_hosts_ = split_hosts(scene, partition_, nranks_);
   stage("partition");
   hand_over_made_meshes();
   stage("hand-over");
@@ -83,38 +85,57 @@ void Simulator::build_components() {
   split_dirty_ = true;
 }
 
-// Objects split for their forces (split_forces.hpp): every candidate is cut into one part
-// per rank (METIS with a fixed seed on the object's dual graph, computed by every rank
-// alike and kept), the owner's part being its own. The plan depends only on the scene,
-// the rank count and the owners: it is made again after a migration.
+// Objects split for their forces (split_forces.hpp): every candidate is cut into
+// split_part_count parts (METIS with a fixed seed on the object's dual graph, computed
+// alike by every rank that takes part, and kept), each evaluated by its host
+// (split_hosts_: one part per rank, or the ranks the partition kept room on). The plan
+// is made again after a migration. A rank that neither owns nor hosts an object needs
+// nothing of it.
 void Simulator::prepare_split() {
   if (split_candidates_.empty() || !ghosts_->active()) return;
   if (!split_dirty_) {
     if (ghosts_->rebuilds() != split_ghost_generation_) share_ghost_holders();
     return;
   }
-  // Every rank computes a part of each split object's forces from its mesh: a
-  // single-copy mesh not held here comes from its owner (no rank reads the file again).
+  const SplitHosts& hosts = split_hosts_;
+  if (hosts.size() != split_candidates_.size()) throw RuntimeFailure("Simulator: the split objects' hosts do not match");
+  auto takes_part = [&](std::size_t i) {
+    const int k = split_candidates_[i];
+    return partition_[static_cast<std::size_t>(k)] == rank_ ||
+           std::find(hosts[i].begin(), hosts[i].end(), rank_) != hosts[i].end();
+  };
+  // A rank taking part needs the object's mesh: a single-copy mesh not held here comes
+  // from its owner (no rank reads the file again).
   std::vector<int> wanted, from;
-  for (int k : split_candidates_)
-    if (needs_owner_mesh(scene_, k)) {
+  for (std::size_t i = 0; i < split_candidates_.size(); ++i) {
+    const int k = split_candidates_[i];
+    if (takes_part(i) && needs_owner_mesh(scene_, k)) {
       wanted.push_back(k);
       from.push_back(partition_[static_cast<std::size_t>(k)]);
     }
+  }
   int fetch = wanted.empty() ? 0 : 1;
   MPI_Allreduce(MPI_IN_PLACE, &fetch, 1, MPI_INT, MPI_MAX, comm_);
   if (fetch) (void)fetch_object_meshes(comm_, scene_, wanted, from);
   std::vector<SplitObject> plan;
-  for (int k : split_candidates_) {
-    std::vector<std::int32_t>& parts = split_parts_[k];
-    if (parts.empty()) parts = split_tet_parts(scene_.view_mesh(static_cast<std::size_t>(k)).get(), nranks_);
-    plan.push_back({k, partition_[static_cast<std::size_t>(k)], parts});
+  split_ranks_ = 0;
+  for (std::size_t i = 0; i < split_candidates_.size(); ++i) {
+    const int k = split_candidates_[i];
+    const std::vector<int>& h = hosts[i];
+    split_ranks_ = std::max(split_ranks_, static_cast<int>(h.size()));
+    std::vector<std::int32_t> tet_part;
+    if (takes_part(i)) {
+      std::vector<std::int32_t>& parts = split_parts_[k];
+      if (parts.empty()) parts = split_tet_parts(scene_.view_mesh(static_cast<std::size_t>(k)).get(), static_cast<int>(h.size()));
+      tet_part.reserve(parts.size());
+      for (std::int32_t q : parts) tet_part.push_back(h[static_cast<std::size_t>(q)]);
+    }
+    plan.push_back({k, partition_[static_cast<std::size_t>(k)], std::move(tet_part)});
   }
   if (core_->split()) split_doubles_before_ += core_->split()->doubles_sent();
   core_->set_split(std::make_unique<SplitForces>(scene_, world_, std::move(plan)));
   split_dirty_ = false;
   split_count_ = static_cast<int>(split_candidates_.size());
-  split_ranks_ = nranks_;
   share_ghost_holders();
 }
 
@@ -227,6 +248,10 @@ std::int64_t Simulator::split_bytes_sent() const {
 std::int64_t Simulator::split_helped_tets() const {
   const SplitForces* s = core_ ? core_->split() : nullptr;
   return s ? s->helped_tets() : 0;
+}
+std::int64_t Simulator::split_evaluated_tets() const {
+  const SplitForces* s = core_ ? core_->split() : nullptr;
+  return s ? s->evaluated_tets() : 0;
 }
 int Simulator::split_helping_parts() const {
   const SplitForces* s = core_ ? core_->split() : nullptr;
@@ -410,12 +435,16 @@ void Simulator::maybe_rebalance() {
   work.contacts.swap(window_contacts_);
   work_seconds_ = 0;
   std::vector<int> next;
-  if (!rebalance(comm_, scene_, world_, partition_, rebalance_, step_, work, next, rebalance_history_)) return;
+  SplitHosts hosts = split_hosts_;
+  if (!rebalance(comm_, scene_, world_, partition_, rebalance_, step_, work, next, rebalance_history_, &hosts)) return;
   ++repartitions_;
-  if (next != partition_) migrate(next);
+  if (next != partition_) migrate(next, std::move(hosts));
 }
 
-void Simulator::migrate(const std::vector<int>& next) {
+void Simulator::migrate(const std::vector<int>& next) { migrate(next, split_hosts(scene_, next, nranks_)); }
+
+void Simulator::migrate(const std::vector<int>& next, SplitHosts hosts) {
+  split_hosts_ = std::move(hosts);
   StepState then;
   World next_world = migrate_objects(comm_, scene_, world_, snapshot(), partition_, next, then);
   partition_ = next;

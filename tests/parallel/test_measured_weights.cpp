@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "softcontact/error.hpp"
 #include "softcontact/rebalance.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/split_forces.hpp"
@@ -205,6 +206,91 @@ TEST(SplitCandidates, TheMaskNamesWhatEachObjectsTestNames) {
   s.sim.split_objects = true;
   const std::vector<std::int64_t> w = measured_weights(s, {0, 0, 1, 1, 1}, {});
   EXPECT_EQ(w, (std::vector<std::int64_t>{501, 101, 101, 201, 1}));
+  // On 6 ranks the 200 (20 % of the tets) is cut into ceil(2 x 200 x 6 / 1000) = 3
+  // parts, not 6 (split_part_count): three part nodes of 200 / 3 follow the objects.
   const std::vector<std::int64_t> w6 = measured_weights(s, {0, 1, 2, 3, 4}, std::vector<double>(6, 0.0));
-  EXPECT_EQ(w6, (std::vector<std::int64_t>{500 / 6 + 1, 101, 101, 200 / 6 + 1, 1}));
+  EXPECT_EQ(w6, (std::vector<std::int64_t>{500 / 6 + 1, 101, 101, 200 / 6 + 1, 1, 200 / 3 + 1, 200 / 3 + 1, 200 / 3 + 1}));
+}
+
+// Parts of about half an even share, at most one per rank: ceil(2 tets ranks / total).
+TEST(SplitParts, HalfAShareEachAtMostOnePerRank) {
+  EXPECT_EQ(split_part_count(500, 1000, 1), 1);
+  EXPECT_EQ(split_part_count(500, 1000, 2), 2);     // 2 x 500 x 2 / 1000 = 2
+  EXPECT_EQ(split_part_count(400, 1000, 3), 3);     // 2.4 -> 3: on 3 ranks always one per rank
+  EXPECT_EQ(split_part_count(350, 1000, 4), 3);     // 2.8 -> 3
+  EXPECT_EQ(split_part_count(375, 1000, 4), 3);     // exactly 3
+  EXPECT_EQ(split_part_count(376, 1000, 4), 4);     // 3.008 -> 4
+  EXPECT_EQ(split_part_count(500, 1000, 16), 16);   // 16 -> 16
+  EXPECT_EQ(split_part_count(1000, 1000, 4), 4);    // 8, clamped to the ranks
+  EXPECT_EQ(split_part_count(1, 100, 1000), 20);    // a membrane of 1 % on 1,000 ranks
+  EXPECT_EQ(split_part_count(1'000'000'000, 2'000'000'000, 100'000), 100'000);  // no overflow
+  EXPECT_EQ(split_part_count(std::int64_t{1} << 40, std::int64_t{1} << 50, 1 << 30), 2 << 20);  // 2^64 / 2^50 = 2^21
+  EXPECT_EQ(split_part_count(0, 1000, 4), 1);
+}
+
+namespace {
+
+// A floor of 350 tets under 65 cubes of 10 (1,000 tets; the floor 35 %), shapes only.
+Scene floor_and_cubes(std::vector<Box>& boxes) {
+  Scene s;
+  s.materials.resize(1);
+  auto add = [&](std::size_t tets, Box b) {
+    SceneObject o;
+    ObjectShape sh;
+    sh.tets = tets;
+    sh.vertices = tets;
+    sh.box = b;
+    o.shape = sh;
+    s.objects.push_back(std::move(o));
+    boxes.push_back(b);
+  };
+  add(350, Box{{0, 0, -1}, {13, 5, 0}});
+  for (int i = 0; i < 65; ++i) {
+    const double x = i % 13, y = i / 13;
+    add(10, Box{{x, y, 0}, {x + 0.9, y + 0.9, 0.9}});
+  }
+  return s;
+}
+
+}  // namespace
+
+// The floor on 4 ranks is cut into 3 parts. The partition keeps room for them (each part
+// a node of its tets, partition_at, which says where they landed), and split_hosts,
+// from the partition alone, gives each part to the rank with the least work; either way the work per rank (its cubes' tets, the floor's owner a quarter of the
+// floor for its detection and merge, a host its part's 350 / 3) is balanced within 1.05
+// of the mean (the cubes of 10 tets are the granularity: 1.04 at worst). Without the
+// part nodes it would be 1.15: even cubes, (650 + 87) / 4 = 184 per rank, plus 116 on
+// three of them, against a mean of 271. With one part per rank (3 ranks) the hosts are
+// the ranks in order.
+TEST(SplitParts, ThePartitionKeepsRoomForThePartsAndTheirRanksTakeThem) {
+  std::vector<Box> boxes;
+  const Scene s = floor_and_cubes(boxes);
+  ASSERT_EQ(s.num_tets(), 1000u);
+  SplitHosts placed;
+  const std::vector<int> part = partition_at(s, boxes, 4, {}, MPI_COMM_NULL, &placed);
+  // Where the partition put the part nodes, and split_hosts' greedy choice from the
+  // partition alone (a restart): both balanced.
+  for (const SplitHosts& hosts : {placed, split_hosts(s, part, 4)}) {
+    ASSERT_EQ(hosts.size(), 1u);
+    ASSERT_EQ(hosts[0].size(), 3u);
+    std::vector<double> work(4, 0.0);
+    for (std::size_t k = 0; k < s.objects.size(); ++k)
+      work[static_cast<std::size_t>(part[k])] += k == 0 ? 350 / 4 : 10;
+    for (int r : hosts[0]) {
+      ASSERT_GE(r, 0);
+      ASSERT_LT(r, 4);
+      work[static_cast<std::size_t>(r)] += 350 / 3;
+    }
+    EXPECT_LE(imbalance(work), 1.05) << "work per rank " << work[0] << " " << work[1] << " " << work[2] << " " << work[3];
+  }
+  EXPECT_EQ(split_hosts(s, part, 4), split_hosts(s, part, 4)) << "deterministic";
+  // The same partition from measured weights of equal seconds: the parts are nodes too.
+  const std::vector<std::int64_t> w = measured_weights(s, part, {1.0, 1.0, 1.0, 1.0});
+  ASSERT_EQ(w.size(), s.objects.size() + 3);
+  EXPECT_NO_THROW((void)partition_at(s, boxes, 4, w));
+  EXPECT_THROW((void)partition_at(s, boxes, 4, std::vector<std::int64_t>(w.begin(), w.end() - 1)), RuntimeFailure);
+  // 3 ranks: one part per rank, in rank order.
+  const std::vector<int> three = partition_at(s, boxes, 3, {}, MPI_COMM_NULL, &placed);
+  EXPECT_EQ(placed, (SplitHosts{{0, 1, 2}}));
+  EXPECT_EQ(split_hosts(s, three, 3), (SplitHosts{{0, 1, 2}}));
 }
