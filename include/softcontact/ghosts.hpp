@@ -54,6 +54,12 @@ bool needs_owner_mesh(const Scene& scene, int k);
 std::int64_t fetch_object_meshes(MPI_Comm comm, const Scene& scene, const std::vector<int>& wanted,
                                  const std::vector<int>& from);
 
+/// Of `objects` (held by `owners`, one each), the meshes this rank needs_owner_mesh of,
+/// fetched from their owners: one MPI_Allreduce says whether any rank needs one, and only
+/// then do the ranks call fetch_object_meshes. Returns how many meshes came. Collective.
+std::int64_t fetch_meshes_if_needed(MPI_Comm comm, const Scene& scene, const std::vector<int>& objects,
+                                    const std::vector<int>& owners);
+
 class GhostSet {
 public:
   /// The skin starts at `cell_size` (the detector's cell) and may grow to the median

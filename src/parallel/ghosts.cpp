@@ -98,6 +98,20 @@ bool needs_owner_mesh(const Scene& scene, int k) {
   return o.mesh.points.empty() && o.placement.kind == Placement::Kind::entry && o.placement.base != nullptr;
 }
 
+std::int64_t fetch_meshes_if_needed(MPI_Comm comm, const Scene& scene, const std::vector<int>& objects,
+                                    const std::vector<int>& owners) {
+  if (objects.size() != owners.size()) throw RuntimeFailure("fetch_meshes_if_needed: an owner per object expected");
+  std::vector<int> wanted, from;
+  for (std::size_t i = 0; i < objects.size(); ++i)
+    if (needs_owner_mesh(scene, objects[i])) {
+      wanted.push_back(objects[i]);
+      from.push_back(owners[i]);
+    }
+  int fetch = wanted.empty() ? 0 : 1;
+  MPI_Allreduce(MPI_IN_PLACE, &fetch, 1, MPI_INT, MPI_MAX, comm);
+  return fetch ? fetch_object_meshes(comm, scene, wanted, from) : 0;
+}
+
 // Two exchanges: the object ids to their owners, then each owner's meshes back (an
 // object id and append_mesh_bytes each), checked against the digest of the mesh the scene
 // made first.

@@ -363,15 +363,13 @@ World migrate_objects(MPI_Comm comm, const Scene& scene, const World& w,
 
   // The single-copy meshes of arriving objects not held here come from their old owners
   // (no file is read again).
-  std::vector<int> wanted, from;
+  std::vector<int> arriving, from;
   for (std::size_t k = 0; k < next.size(); ++k)
-    if (next[k] == rank && current[k] != rank && needs_owner_mesh(scene, static_cast<int>(k))) {
-      wanted.push_back(static_cast<int>(k));
+    if (next[k] == rank && current[k] != rank) {
+      arriving.push_back(static_cast<int>(k));
       from.push_back(current[k]);
     }
-  int fetch = wanted.empty() ? 0 : 1;
-  MPI_Allreduce(MPI_IN_PLACE, &fetch, 1, MPI_INT, MPI_MAX, comm);
-  if (fetch) (void)fetch_object_meshes(comm, scene, wanted, from);
+  (void)fetch_meshes_if_needed(comm, scene, arriving, from);
 
   World next_world = build_world(scene, next, rank);  // initial positions
   then = StepState{};

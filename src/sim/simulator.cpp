@@ -106,17 +106,13 @@ void Simulator::prepare_split() {
   };
   // A rank taking part needs the object's mesh: a single-copy mesh not held here comes
   // from its owner (no rank reads the file again).
-  std::vector<int> wanted, from;
-  for (std::size_t i = 0; i < split_candidates_.size(); ++i) {
-    const int k = split_candidates_[i];
-    if (takes_part(i) && needs_owner_mesh(scene_, k)) {
-      wanted.push_back(k);
-      from.push_back(partition_[static_cast<std::size_t>(k)]);
+  std::vector<int> mine, from;
+  for (std::size_t i = 0; i < split_candidates_.size(); ++i)
+    if (takes_part(i)) {
+      mine.push_back(split_candidates_[i]);
+      from.push_back(partition_[static_cast<std::size_t>(split_candidates_[i])]);
     }
-  }
-  int fetch = wanted.empty() ? 0 : 1;
-  MPI_Allreduce(MPI_IN_PLACE, &fetch, 1, MPI_INT, MPI_MAX, comm_);
-  if (fetch) (void)fetch_object_meshes(comm_, scene_, wanted, from);
+  (void)fetch_meshes_if_needed(comm_, scene_, mine, from);
   std::vector<SplitObject> plan;
   split_ranks_ = 0;
   for (std::size_t i = 0; i < split_candidates_.size(); ++i) {
