@@ -284,9 +284,16 @@ TEST(SplitParts, ThePartitionKeepsRoomForThePartsAndTheirRanksTakeThem) {
     EXPECT_LE(imbalance(work), 1.05) << "work per rank " << work[0] << " " << work[1] << " " << work[2] << " " << work[3];
   }
   EXPECT_EQ(split_hosts(s, part, 4), split_hosts(s, part, 4)) << "deterministic";
-  // The same partition from measured weights of equal seconds: the parts are nodes too.
-  const std::vector<std::int64_t> w = measured_weights(s, part, {1.0, 1.0, 1.0, 1.0});
+  // Measured weights: the parts are nodes too, after the objects, and each rank's nodes
+  // (its objects, and the parts it evaluated by `placed`) sum to its measured seconds in
+  // microseconds (to within the rounding of each weight).
+  const std::vector<double> seconds = {1.0, 2.0, 1.5, 0.5};
+  const std::vector<std::int64_t> w = measured_weights(s, part, seconds, {}, placed);
   ASSERT_EQ(w.size(), s.objects.size() + 3);
+  std::vector<double> per_rank(4, 0.0);
+  for (std::size_t k = 0; k < s.objects.size(); ++k) per_rank[static_cast<std::size_t>(part[k])] += static_cast<double>(w[k]);
+  for (std::size_t i = 0; i < 3; ++i) per_rank[static_cast<std::size_t>(placed[0][i])] += static_cast<double>(w[s.objects.size() + i]);
+  for (std::size_t r = 0; r < 4; ++r) EXPECT_NEAR(per_rank[r], 1e6 * seconds[r], 70.0) << "rank " << r;
   EXPECT_NO_THROW((void)partition_at(s, boxes, 4, w));
   EXPECT_THROW((void)partition_at(s, boxes, 4, std::vector<std::int64_t>(w.begin(), w.end() - 1)), RuntimeFailure);
   // 3 ranks: one part per rank, in rank order.
