@@ -49,11 +49,13 @@ std::vector<int> initial_partition(const Scene& scene, int nranks, MPI_Comm comm
 /// a non-finite corner counts as a point at the origin). Identical on every rank.
 /// `weights`: the nodes' weights (measured_weights: the objects', then the split objects'
 /// parts'); empty: the static work (tets, a tenth of the surface triangles for kinematic
-/// objects). A split object cut into fewer parts than ranks (split_part_count) adds its
-/// parts as nodes of that work (its tets / parts, or their measured share), at its box;
-/// `hosts` (optional) gets the ranks where they landed, so that the ranks that evaluate
-/// them are those the partition kept room on (one part per rank in rank order for an
-/// object with as many parts as ranks).
+/// objects; a split object the work of one of its parts, which its owner evaluates). A
+/// split object cut into fewer parts than ranks (split_part_count) adds its other parts
+/// as nodes of that work (its tets / parts, or their measured share), at its box;
+/// `hosts` (optional) gets, per split object, its owner (part 0) and the ranks where
+/// those nodes landed, so that the ranks that evaluate the parts are those the partition
+/// kept room on (one part per rank in rank order for an object with as many parts as
+/// ranks).
 std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes,
                               int nranks, std::vector<std::int64_t> weights = {}, MPI_Comm comm = MPI_COMM_NULL,
                               SplitHosts* hosts = nullptr);
@@ -61,9 +63,10 @@ std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes,
 /// Split hosts from a partition alone, where the partition that kept room for the parts
 /// is not at hand (a partition given to the Simulator, a restart, a migration by hand):
 /// one part per rank in rank order for an object with as many parts as ranks; with
-/// fewer, each part in turn to the rank with the least static work so far (its objects
-/// in `partition`, a split object at one share of its tets, then the parts given out
-/// before; ties: the lowest rank). Identical on every rank.
+/// fewer, part 0 to the owner and each other part in turn to the rank with the least
+/// static work so far (its objects in `partition`, a split object at one part of its
+/// tets, then the parts given out before; ties: the lowest rank). Identical on every
+/// rank.
 SplitHosts split_hosts(const Scene& scene, const std::vector<int>& partition, int nranks);
 
 /// The CutSearch of the ranks of `comm` (none for MPI_COMM_NULL or one rank): each runs
@@ -87,11 +90,10 @@ std::int64_t static_work(const Scene& scene, std::size_t k);
 ///    the parts' predicted costs are exactly the measured seconds, and within a rank the
 ///    objects in contact weigh more than those at rest.
 ///
-/// The parts of split objects cut into fewer parts than ranks follow the objects (one
-/// weight each, after the objects', as partition_at takes them): their static work
-/// counts on the rank evaluating them (`hosts`, those of the run; empty: split_hosts of
-/// `part`) in step 1 and their share
-/// of its seconds is their weight. When some rank measured no time (non-positive or not
+/// The parts of split objects cut into fewer parts than ranks, but the owner's, follow
+/// the objects (one weight each, after the objects', as partition_at takes them): their
+/// static work counts on the rank evaluating them (`hosts`, those of the run; empty:
+/// split_hosts of `part`) in step 1 and their share of its seconds is their weight. When some rank measured no time (non-positive or not
 /// finite), every weight is the static work + 1 (no mixing of units). Identical on every rank given the same input
 /// (arithmetic in object and rank order).
 std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector<int>& part,

@@ -23,33 +23,40 @@ std::int64_t static_work(const Scene& scene, std::size_t k) {
 }
 
 namespace {
-// A split object's force work is shared by the ranks that hold it (split_forces.hpp):
-// its owner carries about one share of it. `split` is split_mask(scene, nranks).
-std::int64_t shared_work(const Scene& scene, std::size_t k, int nranks, const std::vector<char>& split) {
-  const std::int64_t w = static_work(scene, k);
-  return split[k] ? w / nranks : w;
+// Per object: the parts a split object is cut into (split_part_count), 0 for the rest.
+std::vector<int> parts_per_object(const Scene& scene, int nranks) {
+  const std::vector<char> split = split_mask(scene, nranks);
+  std::vector<int> parts(split.size(), 0);
+  const auto total = static_cast<std::int64_t>(scene.num_tets());
+  for (std::size_t k = 0; k < split.size(); ++k)
+    if (split[k]) parts[k] = split_part_count(static_cast<std::int64_t>(scene.shape(k).tets), total, nranks);
+  return parts;
 }
 
-// The parts of the split objects cut into fewer parts than ranks (split_part_count), in
-// split_hosts' order: each is a node of the partition of its own, of its share of the
-// object's work, so that the ranks that will evaluate the parts keep room for them. (An
-// object with a part per rank loads every rank alike: no nodes.)
+// A split object's force work is shared by the ranks evaluating its parts
+// (split_forces.hpp); its owner evaluates one of them. `parts`: parts_per_object.
+std::int64_t shared_work(const Scene& scene, std::size_t k, const std::vector<int>& parts) {
+  const std::int64_t w = static_work(scene, k);
+  return parts[k] > 0 ? w / parts[k] : w;
+}
+
+// The other parts of the split objects cut into fewer parts than ranks, in split_hosts'
+// order (parts 1 .. parts - 1; the owner's node carries part 0): each is a node of the
+// partition of its own, of its share of the object's work, so that the ranks that will
+// evaluate the parts keep room for them. (An object with a part per rank loads every
+// rank alike: no nodes.)
 struct PartNodes {
   std::vector<std::size_t> object;  // per node: the split object
   std::vector<std::int64_t> work;   // per node: the object's static work / its parts
 };
 
-PartNodes part_nodes(const Scene& scene, int nranks, const std::vector<char>& split) {
+PartNodes part_nodes(const Scene& scene, int nranks, const std::vector<int>& parts) {
   PartNodes n;
-  if (nranks <= 1) return n;
-  const auto total = static_cast<std::int64_t>(scene.num_tets());
-  for (std::size_t k = 0; k < split.size(); ++k) {
-    if (!split[k]) continue;
-    const int parts = split_part_count(static_cast<std::int64_t>(scene.shape(k).tets), total, nranks);
-    if (parts >= nranks) continue;
-    for (int i = 0; i < parts; ++i) {
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    if (parts[k] <= 0 || parts[k] >= nranks) continue;
+    for (int i = 1; i < parts[k]; ++i) {
       n.object.push_back(k);
-      n.work.push_back(static_work(scene, k) / parts);
+      n.work.push_back(static_work(scene, k) / parts[k]);
     }
   }
   return n;
@@ -63,24 +70,23 @@ SplitHosts split_hosts(const Scene& scene, const std::vector<int>& partition, in
                          std::to_string(no));
   SplitHosts hosts;
   if (nranks <= 1) return hosts;
-  const std::vector<char> split = split_mask(scene, nranks);
+  const std::vector<int> parts = parts_per_object(scene, nranks);
   std::vector<std::int64_t> load(static_cast<std::size_t>(nranks), 0);
   for (std::size_t k = 0; k < no; ++k) {
     if (partition[k] < 0 || partition[k] >= nranks)
       throw RuntimeFailure("split_hosts: object " + std::to_string(k) + " on rank " + std::to_string(partition[k]));
-    load[static_cast<std::size_t>(partition[k])] += shared_work(scene, k, nranks, split);
+    load[static_cast<std::size_t>(partition[k])] += shared_work(scene, k, parts);
   }
-  const auto total = static_cast<std::int64_t>(scene.num_tets());
   for (std::size_t k = 0; k < no; ++k) {
-    if (!split[k]) continue;
-    const int parts = split_part_count(static_cast<std::int64_t>(scene.shape(k).tets), total, nranks);
-    std::vector<int> h(static_cast<std::size_t>(parts));
-    if (parts >= nranks) {
+    if (parts[k] <= 0) continue;
+    std::vector<int> h(static_cast<std::size_t>(parts[k]));
+    if (parts[k] >= nranks) {
       std::iota(h.begin(), h.end(), 0);
     } else {
-      for (int& r : h) {
-        r = static_cast<int>(std::min_element(load.begin(), load.end()) - load.begin());  // the first: lowest rank
-        load[static_cast<std::size_t>(r)] += static_work(scene, k) / parts;
+      h[0] = partition[k];  // the owner's own part, in its load already
+      for (std::size_t i = 1; i < h.size(); ++i) {
+        h[i] = static_cast<int>(std::min_element(load.begin(), load.end()) - load.begin());  // the first: lowest rank
+        load[static_cast<std::size_t>(h[i])] += static_work(scene, k) / parts[k];
       }
     }
     hosts.push_back(std::move(h));
@@ -96,9 +102,9 @@ std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector
   if (!contacts.empty() && contacts.size() != no) throw RuntimeFailure("measured_weights: the contacts have the wrong size");
   std::vector<std::int64_t> w(no);
   const int nranks = std::max(1, static_cast<int>(rank_seconds.size()));
-  const std::vector<char> split = split_mask(scene, nranks);
-  for (std::size_t k = 0; k < no; ++k) w[k] = shared_work(scene, k, nranks, split) + 1;
-  const PartNodes nodes = part_nodes(scene, nranks, split);
+  const std::vector<int> parts = parts_per_object(scene, nranks);
+  for (std::size_t k = 0; k < no; ++k) w[k] = shared_work(scene, k, parts) + 1;
+  const PartNodes nodes = part_nodes(scene, nranks, parts);
   for (std::int64_t p : nodes.work) w.push_back(p + 1);
   bool measured = !rank_seconds.empty();
   for (double t : rank_seconds) measured = measured && std::isfinite(t) && t > 0;
@@ -116,7 +122,7 @@ std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector
   std::vector<std::size_t> host;
   for (const std::vector<int>& h : hosts_in.empty() ? split_hosts(scene, part, nranks) : hosts_in)
     if (h.size() < nr)
-      for (int r : h) {
+      for (int r : std::vector<int>(h.begin() + 1, h.end())) {  // part 0 is the owner's, in its node
         if (r < 0 || static_cast<std::size_t>(r) >= nr) throw RuntimeFailure("measured_weights: a split part on rank " + std::to_string(r));
         host.push_back(static_cast<std::size_t>(r));
       }
@@ -240,8 +246,8 @@ std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes, int nr
   const std::size_t no = scene.objects.size();
   if (hosts) hosts->clear();
   if (nranks <= 1) return std::vector<int>(no, 0);
-  const std::vector<char> split = split_mask(scene, nranks);
-  const PartNodes nodes = part_nodes(scene, nranks, split);
+  const std::vector<int> parts = parts_per_object(scene, nranks);
+  const PartNodes nodes = part_nodes(scene, nranks, parts);
   const std::size_t nn = no + nodes.object.size();
   if (!weights.empty() && weights.size() != nn)
     throw RuntimeFailure("partition_at: " + std::to_string(weights.size()) + " weights for " + std::to_string(no) +
@@ -250,7 +256,7 @@ std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes, int nr
   const bool tet_weights = weights.empty();
   in.weight = std::move(weights);
   for (std::size_t k = 0; k < no; ++k) {
-    if (tet_weights) in.weight.push_back(shared_work(scene, k, nranks, split));
+    if (tet_weights) in.weight.push_back(shared_work(scene, k, parts));
     for (int d = 0; d < 3; ++d)
       if (!std::isfinite(boxes[k].lo[d]) || !std::isfinite(boxes[k].hi[d]) || !(boxes[k].lo[d] <= boxes[k].hi[d]))
         boxes[k].lo[d] = boxes[k].hi[d] = 0;  // a blown-up object
@@ -267,15 +273,17 @@ std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes, int nr
   in.box = std::move(boxes);
   std::vector<int> part = partition_objects(in, nranks, shared_cut_search(comm));
   if (hosts) {
-    // Per candidate: its part nodes' ranks, or every rank in order.
+    // Per candidate: every rank in order, or its owner (part 0) and its part nodes' ranks.
     std::size_t j = 0;
     for (std::size_t k = 0; k < no; ++k) {
-      if (!split[k]) continue;
+      if (parts[k] <= 0) continue;
       std::vector<int> h;
-      while (j < nodes.object.size() && nodes.object[j] == k) h.push_back(part[no + j++]);
-      if (h.empty()) {
+      if (parts[k] >= nranks) {
         h.resize(static_cast<std::size_t>(nranks));
         std::iota(h.begin(), h.end(), 0);
+      } else {
+        h.push_back(part[k]);
+        while (j < nodes.object.size() && nodes.object[j] == k) h.push_back(part[no + j++]);
       }
       hosts->push_back(std::move(h));
     }
