@@ -87,21 +87,31 @@ const Scene& soft_floor() {
   return s;
 }
 
+// soft_floor.yaml with each `from` replaced by `to`, which must occur `count` times.
+struct Edit {
+  std::string from, to;
+  int count;
+};
+Scene soft_floor_edited(const std::vector<Edit>& edits) {
+  const std::string path = std::string(SOFTCONTACT_TEST_DATA) + "/scenes/soft_floor.yaml";
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  for (const Edit& e : edits) {
+    int n = 0;
+    for (std::size_t at = yaml.find(e.from); at != std::string::npos; at = yaml.find(e.from, at + e.to.size()), ++n)
+      yaml.replace(at, e.from.size(), e.to);
+    if (n != e.count)
+      throw std::runtime_error("soft_floor.yaml: expected '" + e.from + "' " + std::to_string(e.count) + " times");
+  }
+  return load_scene_from_string(yaml, path);
+}
+
 // soft_floor with its balls 3 m higher: no rank but the floor's owner is near the floor,
 // so none holds it as a ghost, and its parts need the positions sent.
 const Scene& soft_floor_far() {
-  static const Scene s = [] {
-    const std::string path = std::string(SOFTCONTACT_TEST_DATA) + "/scenes/soft_floor.yaml";
-    std::ifstream in(path);
-    std::stringstream text;
-    text << in.rdbuf();
-    std::string yaml = text.str();
-    int moved = 0;
-    for (std::size_t at = yaml.find("0.09]}"); at != std::string::npos; at = yaml.find("0.09]}", at + 1), ++moved)
-      yaml.replace(at, 4, "3.09");
-    if (moved != 2) throw std::runtime_error("soft_floor.yaml: expected the two ball rows at z = 0.09");
-    return load_scene_from_string(yaml, path);
-  }();
+  static const Scene s = soft_floor_edited({{"0.09]}", "3.09]}", 2}});
   return s;
 }
 
@@ -109,22 +119,8 @@ const Scene& soft_floor_far() {
 // split from 3 ranks on, one part per rank on 3 and three parts (each about half an even
 // share, split_part_count) on 4.
 const Scene& soft_floor_twelve() {
-  static const Scene s = [] {
-    const std::string path = std::string(SOFTCONTACT_TEST_DATA) + "/scenes/soft_floor.yaml";
-    std::ifstream in(path);
-    std::stringstream text;
-    text << in.rdbuf();
-    std::string yaml = text.str();
-    auto replace_all = [&](const std::string& from, const std::string& to, int expected) {
-      int n = 0;
-      for (std::size_t at = yaml.find(from); at != std::string::npos; at = yaml.find(from, at + to.size()), ++n)
-        yaml.replace(at, from.size(), to);
-      if (n != expected) throw std::runtime_error("soft_floor.yaml: expected '" + from + "' " + std::to_string(expected) + " times");
-    };
-    replace_all("count: [3, 1, 1], spacing: [0.3, 0, 0]", "count: [6, 1, 1], spacing: [0.18, 0, 0]", 2);
-    replace_all("translate: [-0.3, ", "translate: [-0.45, ", 2);
-    return load_scene_from_string(yaml, path);
-  }();
+  static const Scene s = soft_floor_edited({{"count: [3, 1, 1], spacing: [0.3, 0, 0]", "count: [6, 1, 1], spacing: [0.18, 0, 0]", 2},
+                                            {"translate: [-0.3, ", "translate: [-0.45, ", 2}});
   return s;
 }
 
