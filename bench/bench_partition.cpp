@@ -11,7 +11,9 @@
 #include <benchmark/benchmark.h>
 
 #include <cmath>
+#include <random>
 
+#include "softcontact/partition.hpp"
 #include "softcontact/rebalance.hpp"
 #include "softcontact/split_forces.hpp"
 
@@ -53,6 +55,41 @@ void BM_InitialPartition(benchmark::State& state) {
   state.SetComplexityN(state.range(0));
 }
 
+// The object graph's edges alone (boxes_within plus the weights), on the lattice and on
+// a dense pile: n boxes of 0.6 to 1.4 at random in a cube holding about 1.5 per unit of
+// volume, reach 1 (each box near about 20 others; seed fixed).
+void BM_ObjectGraphLattice(benchmark::State& state) {
+  const Scene scene = lattice(static_cast<int>(state.range(0)));
+  PartitionInput in;
+  for (const SceneObject& o : scene.objects) {
+    in.box.push_back(o.shape->box);
+    in.weight.push_back(1);
+  }
+  in.reach = 1.0;
+  for (auto _ : state) benchmark::DoNotOptimize(object_graph_edges(in).data());
+  state.SetComplexityN(state.range(0));
+}
+
+void BM_ObjectGraphPile(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const double side = std::cbrt(n / 1.5);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> pos(0.0, side), size(0.6, 1.4);
+  PartitionInput in;
+  in.reach = 1.0;
+  for (int k = 0; k < n; ++k) {
+    Box b;
+    for (int d = 0; d < 3; ++d) {
+      b.lo[d] = pos(rng);
+      b.hi[d] = b.lo[d] + size(rng);
+    }
+    in.box.push_back(b);
+    in.weight.push_back(1);
+  }
+  for (auto _ : state) benchmark::DoNotOptimize(object_graph_edges(in).data());
+  state.SetComplexityN(state.range(0));
+}
+
 // The split candidates alone (split_mask): one pass over the objects.
 void BM_SplitMask(benchmark::State& state) {
   const Scene scene = lattice(static_cast<int>(state.range(0)));
@@ -72,6 +109,8 @@ BENCHMARK(BM_InitialPartition)
     ->Args({64000, 8})
     ->Args({16000, 64})
     ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ObjectGraphLattice)->Arg(4000)->Arg(64000)->Arg(512000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ObjectGraphPile)->Arg(4000)->Arg(64000)->Arg(512000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_SplitMask)->Arg(1000)->Arg(16000)->Arg(256000)->Unit(benchmark::kMicrosecond);
 
 BENCHMARK_MAIN();

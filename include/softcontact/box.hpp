@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <utility>
 #include <vector>
 
 namespace softcontact {
@@ -104,6 +105,14 @@ void sweep_pairs(const std::vector<Box>& box, const std::vector<std::int32_t>& i
     }
   }
 }
+
+/// Every pair (a, b), a < b, of boxes that come within `reach` of each other on every
+/// axis (Box::within, the same floating-point test), each once, in no set order. Found
+/// in a hierarchy of uniform grids (src/core/box_grid.cpp): O(n log n + pairs near each
+/// other), whatever the boxes' sizes and arrangement, where a sweep along one axis
+/// compares every box with all those whose interval along that axis meets its own.
+/// Boxes must be finite and not empty.
+std::vector<std::pair<std::int32_t, std::int32_t>> boxes_within(const std::vector<Box>& box, double reach);
 
 /// Grows `b` to hold the point p (3 doubles). Unlike Box::add, a NaN coordinate is not
 /// skipped: it replaces the bound, so that the box of an object with a non-finite

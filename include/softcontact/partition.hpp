@@ -40,10 +40,11 @@ struct ObjectEdge {
   std::int32_t weight;
 };
 
-/// The object graph's edges in ascending (i, j) order. Found by a sweep (sort by lo,
-/// scan forward while the next lo is within hi + reach) along the axis with the fewest
-/// candidate pairs, counted beforehand by binary search: O(n log n + candidate pairs),
-/// not O(n^2) unless the boxes really are all near each other along every axis.
+/// The object graph's edges in ascending (i, j) order. The pairs come from
+/// boxes_within (box.hpp, a hierarchy of uniform grids): O(n log n + pairs near each
+/// other). Until 2026-11-28 a sweep along the axis with the fewest candidates found
+/// them: the same edges, but in a pile every box was compared with all those in its
+/// slab along that axis (8 chess containers side by side: 8.5 ms for 4,040 objects).
 std::vector<ObjectEdge> object_graph_edges(const PartitionInput& in);
 
 /// How ranks share partition_objects' search for the smallest cut: of the kMetisCuts

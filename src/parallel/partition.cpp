@@ -48,29 +48,6 @@ double axis_gap(const Box& a, const Box& b, int axis) {
   return std::max({0.0, b.lo[axis] - a.hi[axis], a.lo[axis] - b.hi[axis]});
 }
 
-// Objects sorted by (lo[axis], index): ties broken by index keep the order deterministic.
-std::vector<std::int32_t> sorted_by_lo(const PartitionInput& in, int axis) {
-  std::vector<std::int32_t> order(in.box.size());
-  std::iota(order.begin(), order.end(), 0);
-  sort_for_sweep(in.box, order, axis);
-  return order;
-}
-
-// Pairs a sweep along `axis` would test: for each object, those after it in lo order
-// whose lo is within its hi + reach. O(n log n) by binary search, so the cheapest axis
-// is chosen before any pair is looked at.
-std::int64_t sweep_candidates(const PartitionInput& in, const std::vector<std::int32_t>& order, int axis) {
-  std::vector<double> lo(order.size());
-  for (std::size_t p = 0; p < order.size(); ++p) lo[p] = in.box[order[p]].lo[axis];
-  std::int64_t count = 0;
-  for (std::size_t p = 0; p < order.size(); ++p) {
-    const auto end = std::upper_bound(lo.begin() + static_cast<std::ptrdiff_t>(p) + 1, lo.end(),
-                                      in.box[order[p]].hi[axis] + in.reach);
-    count += end - (lo.begin() + static_cast<std::ptrdiff_t>(p) + 1);
-  }
-  return count;
-}
-
 struct Graph {
   std::vector<idx_t> xadj, adjncy, adjwgt, vwgt;
 };
@@ -263,32 +240,24 @@ void metis_parts(const PartitionInput& in, const std::vector<std::int32_t>& ids,
 
 std::vector<ObjectEdge> object_graph_edges(const PartitionInput& in) {
   validate(in);
-  // Sweep along the axis with the fewest candidate pairs (ties: the lowest axis), so a
-  // column of objects stacked along z does not make a sweep along x quadratic.
-  int axis = 0;
-  std::vector<std::int32_t> order = sorted_by_lo(in, 0);
-  std::int64_t best = sweep_candidates(in, order, 0);
-  for (int a = 1; a < 3 && best > 0; ++a) {
-    std::vector<std::int32_t> o = sorted_by_lo(in, a);
-    const std::int64_t c = sweep_candidates(in, o, a);
-    if (c < best) {
-      best = c;
-      axis = a;
-      order = std::move(o);
-    }
-  }
-
-  std::vector<ObjectEdge> edges;
-  sweep_pairs(in.box, order, axis, in.reach, [&](std::int32_t p, std::int32_t q) {
+  const auto pairs = boxes_within(in.box, in.reach);
+  // Ascending (i, j): bucketed by i (a counting sort), each bucket sorted by j.
+  std::vector<std::size_t> first(in.box.size() + 1, 0);
+  for (const auto& pq : pairs) ++first[static_cast<std::size_t>(pq.first) + 1];
+  for (std::size_t k = 0; k < in.box.size(); ++k) first[k + 1] += first[k];
+  std::vector<ObjectEdge> edges(pairs.size());
+  std::vector<std::size_t> fill(first.begin(), first.end() - 1);
+  for (const auto& [p, q] : pairs) {
     const Box& a = in.box[static_cast<std::size_t>(p)];
     const Box& b = in.box[static_cast<std::size_t>(q)];
     const double gap = std::max({axis_gap(a, b, 0), axis_gap(a, b, 1), axis_gap(a, b, 2)});
     const double closeness = in.reach > 0 ? 1.0 - std::min(gap, in.reach) / in.reach : 1.0;
     const auto w = static_cast<std::int32_t>(1 + std::lround(100.0 * closeness));
-    edges.push_back({std::min(p, q), std::max(p, q), w});
-  });
-  std::sort(edges.begin(), edges.end(),
-            [](const ObjectEdge& x, const ObjectEdge& y) { return x.i < y.i || (x.i == y.i && x.j < y.j); });
+    edges[fill[static_cast<std::size_t>(p)]++] = {p, q, w};
+  }
+  for (std::size_t k = 0; k < in.box.size(); ++k)
+    std::sort(edges.begin() + static_cast<std::ptrdiff_t>(first[k]), edges.begin() + static_cast<std::ptrdiff_t>(first[k + 1]),
+              [](const ObjectEdge& x, const ObjectEdge& y) { return x.j < y.j; });
   return edges;
 }
 

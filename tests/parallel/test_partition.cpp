@@ -100,10 +100,10 @@ TEST(ObjectGraph, EdgeWeightsFollowTheGap) {
   EXPECT_EQ(touching[0].weight, 101);
 }
 
-TEST(ObjectGraph, SweepMatchesBruteForce) {
-  // Random boxes plus a column of boxes stacked along z spanning all x (the case a
-  // sweep fixed to x would make quadratic; the sweep must pick another axis and still
-  // find exactly the pairs of the brute-force search).
+TEST(ObjectGraph, MatchesBruteForce) {
+  // Random boxes plus a column of boxes stacked along z spanning all x (long flat
+  // boxes on a coarse level of the grid, and the case that made a sweep along x
+  // quadratic): exactly the pairs and weights of the brute-force search, in order.
   PartitionInput in = random_boxes(1500, 7);
   for (int k = 0; k < 300; ++k) {
     in.box.push_back(box(0, 0, 0.05 * k, 10, 0.3, 0.05 * k + 0.04));
