@@ -46,7 +46,11 @@ class Simulator {
 public:
   /// Builds this rank's World (objects partitioned over the ranks of `comm` with METIS,
   /// or as `partition` gives them) and every phase's precomputed data. Collective.
-  Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partition = {});
+  /// `hosts`: with a given partition, the ranks of the split objects' parts that came
+  /// with it (partition_at's); empty: split_hosts' choice from the partition alone.
+  /// Hosts that do not fit the partition (another count of split objects or parts, a
+  /// part 0 off its owner, a rank out of range) throw RuntimeFailure.
+  Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partition = {}, SplitHosts hosts = {});
   ~Simulator();
   Simulator(const Simulator&) = delete;
   Simulator& operator=(const Simulator&) = delete;

@@ -280,11 +280,12 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
   if (!continuing) check_output_dir(comm, sim.output_dir, opt.overwrite);
 
   std::vector<int> partition;
+  SplitHosts hosts;  // where a new partition put the split objects' parts
   if (restart) {
     const CheckpointInfo& info = restart->info;
     bool same = info.ranks == nranks && info.partition.size() == scene.objects.size();
     for (int r : info.partition) same = same && r >= 0 && r < nranks;
-    partition = same ? info.partition : partition_at(scene, info.boxes, nranks, {}, comm);
+    partition = same ? info.partition : partition_at(scene, info.boxes, nranks, {}, comm, &hosts);
   }
   // Before the Simulator drops the meshes this rank does not need (whole-scene passes
   // would make them again): the fingerprint checkpoints carry, the failure guard's scales.
@@ -292,7 +293,7 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
   // MPI_Allreduce each combines them: no rank makes every mesh.
   const std::uint64_t fingerprint = scene_fingerprint(scene, scene.object_digests(rank, nranks, sum_over(comm)));
   const GuardScales guard_scale = guard_scales(scene, rank, nranks, sum_over(comm));
-  Simulator simulator(comm, scene, partition);
+  Simulator simulator(comm, scene, partition, hosts);
   if (restart) {
     StepState state;
     read_checkpoint_state(comm, restart->path, restart->info, simulator.world(), state);

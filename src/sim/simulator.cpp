@@ -30,7 +30,7 @@
 
 namespace softcontact {
 
-Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partition)
+Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partition, SplitHosts hosts)
     : comm_(comm), rank_(comm_rank(comm)), nranks_(comm_size(comm)), scene_(scene) {
   double t = MPI_Wtime();
   auto stage = [&](const char* name) {  // closes the stage that ends here
@@ -46,7 +46,20 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
                          std::to_string(scene.objects.size()));
   for (int r : partition_)
     if (r < 0 || r >= nranks_) throw RuntimeFailure("Simulator: the partition names rank " + std::to_string(r));
-  if (given) split_hosts_ = split_hosts(scene, partition_, nranks_);
+  if (given) {
+    split_hosts_ = split_hosts(scene, partition_, nranks_);
+    if (!hosts.empty()) {
+      // The partition's own hosts, where they have the shape of the fallback's: one list
+      // per split object, as many parts, part 0 on the owner.
+      bool fits = hosts.size() == split_hosts_.size();
+      for (std::size_t i = 0; fits && i < hosts.size(); ++i) {
+        fits = hosts[i].size() == split_hosts_[i].size() && !hosts[i].empty() && hosts[i][0] == split_hosts_[i][0];
+        for (int r : hosts[i]) fits = fits && r >= 0 && r < nranks_;
+      }
+      if (!fits) throw RuntimeFailure("Simulator: the split objects' hosts do not fit the partition");
+      split_hosts_ = std::move(hosts);
+    }
+  }
   stage("partition");
   hand_over_made_meshes();
   stage("hand-over");

@@ -19,7 +19,9 @@
 
 #include <unistd.h>
 
+#include "softcontact/rebalance.hpp"
 #include "softcontact/run.hpp"
+#include "softcontact/ghosts.hpp"
 #include "softcontact/mesh_io.hpp"
 #include "softcontact/mpi_util.hpp"
 #include "softcontact/primitives.hpp"
@@ -493,6 +495,53 @@ TEST(Distributed, FloorInFewerPartsThanRanksIsBitwiseOneRanks) {
       nullptr, scene);
   EXPECT_EQ(checked, kSteps / 20);
   EXPECT_EQ(migrations, n > 1 ? 1 : 0);
+}
+
+// A partition handed to the Simulator with its split hosts (a restart on another rank
+// count passes partition_at's): the parts go where the hosts say, not where
+// split_hosts' fallback would put them. Here the floor's (3 parts on 4 ranks; on 3,
+// one per rank in rank order) other parts are moved to two ranks that split_hosts' fallback would not take both of, and each rank evaluates
+// floor tets exactly when it is one of them; hosts of another shape are refused.
+TEST(Distributed, GivenPartitionTakesItsSplitHosts) {
+  const int n = comm_size(MPI_COMM_WORLD), rank = comm_rank(MPI_COMM_WORLD);
+  const Scene& scene = soft_floor_twelve();
+  SplitHosts hosts;
+  const std::vector<int> partition = partition_at(scene, scene_boxes(scene), n, {}, MPI_COMM_WORLD, &hosts);
+  if (n < 3) {
+    EXPECT_TRUE(hosts.empty()) << "no split object below 3 ranks";
+    return;
+  }
+  ASSERT_EQ(hosts.size(), 1u);
+  ASSERT_EQ(hosts[0].size(), 3u);
+  if (n == 3) {  // as many parts as ranks: one per rank in rank order, nothing to choose
+    EXPECT_EQ(hosts[0], (std::vector<int>{0, 1, 2}));
+    return;
+  }
+  ASSERT_EQ(hosts[0][0], partition[0]) << "part 0 on the owner";
+  // Two ranks other than the owner, not the pair split_hosts would choose.
+  const SplitHosts fallback = split_hosts(scene, partition, n);
+  std::vector<int> others;
+  for (int r = 0; r < n; ++r)
+    if (r != partition[0]) others.push_back(r);
+  std::vector<int> chosen;
+  for (std::size_t a = 0; a < others.size() && chosen.empty(); ++a)
+    for (std::size_t b = a + 1; b < others.size() && chosen.empty(); ++b) {
+      const std::vector<int> c{partition[0], others[a], others[b]};
+      if (!std::is_permutation(c.begin(), c.end(), fallback[0].begin())) chosen = c;
+    }
+  ASSERT_EQ(chosen.size(), 3u);
+  SplitHosts given{chosen};
+  Simulator sim(MPI_COMM_WORLD, scene, partition, given);
+  sim.step();
+  const bool host = std::find(chosen.begin(), chosen.end(), rank) != chosen.end();
+  EXPECT_EQ(sim.split_evaluated_tets() > 0, host) << "rank " << rank << ", hosts " << chosen[0] << " " << chosen[1]
+                                                  << " " << chosen[2];
+  std::int64_t floor_tets = sim.split_evaluated_tets();
+  MPI_Allreduce(MPI_IN_PLACE, &floor_tets, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_EQ(floor_tets, static_cast<std::int64_t>(scene.shape(0).tets));
+  SplitHosts off_owner{{chosen[1], chosen[0], chosen[2]}}, short_list{{chosen[0], chosen[1]}};
+  EXPECT_THROW(Simulator(MPI_COMM_WORLD, scene, partition, off_owner), RuntimeFailure);
+  EXPECT_THROW(Simulator(MPI_COMM_WORLD, scene, partition, short_list), RuntimeFailure);
 }
 
 // The floor's parts where no rank but its owner is near it: no part holds it as a ghost,
