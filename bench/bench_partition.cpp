@@ -90,6 +90,21 @@ void BM_ObjectGraphPile(benchmark::State& state) {
   state.SetComplexityN(state.range(0));
 }
 
+// The bisection into groups of 8 parts that every rank computes past 8 ranks
+// (group_objects): the lattice's objects into state.range(1) parts.
+void BM_GroupObjects(benchmark::State& state) {
+  const Scene scene = lattice(static_cast<int>(state.range(0)));
+  PartitionInput in;
+  for (const SceneObject& o : scene.objects) {
+    in.box.push_back(o.shape->box);
+    in.weight.push_back(static_cast<std::int64_t>(o.shape->tets));
+  }
+  in.reach = 1.0;
+  const int parts = static_cast<int>(state.range(1));
+  for (auto _ : state) benchmark::DoNotOptimize(group_objects(in, parts).group.data());
+  state.SetComplexityN(state.range(0));
+}
+
 // The split candidates alone (split_mask): one pass over the objects.
 void BM_SplitMask(benchmark::State& state) {
   const Scene scene = lattice(static_cast<int>(state.range(0)));
@@ -111,6 +126,7 @@ BENCHMARK(BM_InitialPartition)
     ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_ObjectGraphLattice)->Arg(4000)->Arg(64000)->Arg(512000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_ObjectGraphPile)->Arg(4000)->Arg(64000)->Arg(512000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_GroupObjects)->Args({64000, 64})->Args({512000, 1024})->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_SplitMask)->Arg(1000)->Arg(16000)->Arg(256000)->Unit(benchmark::kMicrosecond);
 
 BENCHMARK_MAIN();

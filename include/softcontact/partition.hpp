@@ -99,7 +99,43 @@ inline constexpr int kMetisCuts = 4;
 /// inverted box, nparts < 1) or when METIS fails.
 std::vector<int> partition_objects(const PartitionInput& in, int nparts, const CutSearch& search = {});
 
-/// The tets of one mesh in `nparts` parts (objects split over ranks, split_forces.hpp):
+/// Parts that one METIS graph covers at most when the objects are partitioned in groups
+/// (partition_objects_grouped): up to this many parts, the whole scene is one graph.
+inline constexpr int kPartsPerGroup = 8;
+
+/// The groups of partition_objects_grouped: per object its group; per group its first
+/// part and its number of parts (the groups' parts are consecutive, ascending by group).
+struct PartGroups {
+  std::vector<int> group;
+  std::vector<int> first, parts;
+};
+
+/// Recursive coordinate bisection of the objects into groups of at most
+/// `parts_per_group` parts: the parts are halved (the lower half floor(parts / 2)), and
+/// the objects, sorted by the centre of their box along the axis where the centres
+/// spread widest (ties: object index), are cut where the running sum of their weights
+/// (each at least 1) comes nearest the lower half's share of the total (at least one
+/// object each side); until each range of parts fits in a group. One group holding
+/// every object when nparts <= parts_per_group or there are no more objects than parts.
+/// O(n log n) per level, log2(nparts / parts_per_group) levels; identical on every rank.
+PartGroups group_objects(const PartitionInput& in, int nparts, int parts_per_group = kPartsPerGroup);
+
+/// The objects of group g, ascending.
+std::vector<std::int32_t> group_members(const PartGroups& groups, int g);
+
+/// The input restricted to `members` (in their order), with the same reach.
+PartitionInput group_input(const PartitionInput& in, const std::vector<std::int32_t>& members);
+
+/// Objects -> parts for many parts: group_objects, then each group's objects by
+/// partition_objects into the group's parts (their own graph, a group's part numbers
+/// offset by its first part). The same as partition_objects for nparts <= parts_per_group.
+/// The graph and METIS then cost per group what they cost for parts_per_group ranks,
+/// however many parts there are, and a run's ranks can share the groups
+/// (partition_objects_over, rebalance.hpp); the price is the cut along the bisection's
+/// planes, which METIS does not choose. This serial form computes every group.
+std::vector<int> partition_objects_grouped(const PartitionInput& in, int nparts, int parts_per_group = kPartsPerGroup);
+
+/// The tets of one mesh in `nparts` parts/// The tets of one mesh in `nparts` parts (objects split over ranks, split_forces.hpp):
 /// METIS_PartMeshDual on the tets' dual graph (tets sharing a face), fixed seed, so every
 /// rank computes the same parts. Part per tet, in [0, nparts); a part may be empty.
 std::vector<std::int32_t> split_tet_parts(const TetMesh& mesh, int nparts);

@@ -33,10 +33,10 @@ RebalancePolicy rebalance_policy(const Simulation& sim);
 /// The partition METIS gives the scene's objects at their initial positions: nodes
 /// weighted by tets (kinematic objects by a tenth of their surface triangles), edges
 /// between objects closer than the median object size. Identical on every rank. With a
-/// communicator (collective then), its ranks share METIS's search for the smallest cut
-/// (CutSearch, partition.hpp): the same answer, METIS's part in a quarter of the time on
-/// 4 ranks (the object graph is still built by every rank, and at 4,040 objects it costs
-/// as much as the four METIS runs: docs/benchmarks.md).
+/// communicator (collective then), its ranks share the work (partition_objects_over):
+/// past kPartsPerGroup ranks each rank partitions only its group's objects; within a
+/// group the ranks share METIS's search for the smallest cut (CutSearch, partition.hpp).
+/// The same answer on any rank count.
 /// Which rank evaluates each part of each split object: per object of split_candidates
 /// (ascending), one rank per part (split_part_count parts, split_forces.hpp).
 using SplitHosts = std::vector<std::vector<int>>;
@@ -73,7 +73,17 @@ SplitHosts split_hosts(const Scene& scene, const std::vector<int>& partition, in
 /// its candidates, the best is found by two MPI_Allreduce and broadcast by its rank.
 CutSearch shared_cut_search(MPI_Comm comm);
 
-/// The static work of object k: its tets; a kinematic object (no forces, only its share
+/// partition_objects_grouped over the ranks of `comm` (collective; one part per rank,
+/// nparts == its size): each rank computes only the group holding its own part, with
+/// that group's ranks sharing the METIS runs (shared_cut_search on a communicator of
+/// the group), and one MPI_Allgatherv (4 bytes per object) gives every rank the whole
+/// partition. The answer is partition_objects_grouped's on any rank count. With one
+/// group, partition_objects with shared_cut_search(comm); without a communicator (or
+/// one rank), the serial form. A METIS failure in any group throws on every rank.
+std::vector<int> partition_objects_over(const PartitionInput& in, int nparts, MPI_Comm comm,
+                                        int parts_per_group = kPartsPerGroup);
+
+/// The static work of object k:/// The static work of object k: its tets; a kinematic object (no forces, only its share
 /// of detection) a tenth of its surface triangles.
 std::int64_t static_work(const Scene& scene, std::size_t k);
 

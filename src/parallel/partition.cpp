@@ -301,6 +301,108 @@ std::vector<int> partition_objects(const PartitionInput& in, int nparts, const C
   return part;
 }
 
+PartGroups group_objects(const PartitionInput& in, int nparts, int parts_per_group) {
+  validate(in);
+  if (nparts < 1) fail("nparts must be >= 1, got " + std::to_string(nparts));
+  if (parts_per_group < 1) fail("parts_per_group must be >= 1, got " + std::to_string(parts_per_group));
+  const std::size_t n = in.box.size();
+  PartGroups g;
+  g.group.assign(n, 0);
+  if (nparts <= parts_per_group || n <= static_cast<std::size_t>(nparts)) {
+    g.first = {0};
+    g.parts = {nparts};
+    return g;
+  }
+  auto centre = [&](std::int32_t k, int a) {
+    const Box& b = in.box[static_cast<std::size_t>(k)];
+    return 0.5 * (b.lo[a] + b.hi[a]);
+  };
+  auto weight = [&](std::int32_t k) { return std::max<std::int64_t>(in.weight[static_cast<std::size_t>(k)], 1); };
+  std::vector<std::int32_t> ids(n);
+  std::iota(ids.begin(), ids.end(), 0);
+  // Objects [b, e) of ids into parts [first, first + parts): halves of the parts, the
+  // objects cut at the weighted position of the halves along the longest extent of
+  // their centres (sorted by (centre, index): the same cut on every rank).
+  auto split = [&](auto&& self, std::size_t b, std::size_t e, int first, int parts) -> void {
+    if (parts <= parts_per_group || e - b <= 1) {
+      for (std::size_t i = b; i < e; ++i) g.group[static_cast<std::size_t>(ids[i])] = static_cast<int>(g.first.size());
+      g.first.push_back(first);
+      g.parts.push_back(parts);
+      return;
+    }
+    int axis = 0;
+    double widest = -1;
+    for (int a = 0; a < 3; ++a) {
+      double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+      for (std::size_t i = b; i < e; ++i) {
+        lo = std::min(lo, centre(ids[i], a));
+        hi = std::max(hi, centre(ids[i], a));
+      }
+      if (hi - lo > widest) {
+        widest = hi - lo;
+        axis = a;
+      }
+    }
+    std::sort(ids.begin() + static_cast<std::ptrdiff_t>(b), ids.begin() + static_cast<std::ptrdiff_t>(e),
+              [&](std::int32_t x, std::int32_t y) {
+                const double cx = centre(x, axis), cy = centre(y, axis);
+                return cx != cy ? cx < cy : x < y;
+              });
+    const int left = parts / 2;
+    long double total = 0;
+    for (std::size_t i = b; i < e; ++i) total += static_cast<long double>(weight(ids[i]));
+    const long double target = total * left / parts;
+    // The cut after the first objects whose weight comes nearest the target (at least
+    // one object on each side).
+    std::size_t cut = b + 1;
+    long double sum = static_cast<long double>(weight(ids[b])), best = std::fabs(sum - target);
+    for (std::size_t i = b + 1; i + 1 < e; ++i) {
+      sum += static_cast<long double>(weight(ids[i]));
+      const long double d = std::fabs(sum - target);
+      if (d < best) {
+        best = d;
+        cut = i + 1;
+      }
+    }
+    self(self, b, cut, first, left);
+    self(self, cut, e, first + left, parts - left);
+  };
+  split(split, 0, n, 0, nparts);
+  return g;
+}
+
+std::vector<std::int32_t> group_members(const PartGroups& groups, int g) {
+  std::vector<std::int32_t> out;
+  for (std::size_t k = 0; k < groups.group.size(); ++k)
+    if (groups.group[k] == g) out.push_back(static_cast<std::int32_t>(k));
+  return out;
+}
+
+PartitionInput group_input(const PartitionInput& in, const std::vector<std::int32_t>& members) {
+  PartitionInput sub;
+  sub.reach = in.reach;
+  sub.weight.reserve(members.size());
+  sub.box.reserve(members.size());
+  for (std::int32_t k : members) {
+    sub.weight.push_back(in.weight[static_cast<std::size_t>(k)]);
+    sub.box.push_back(in.box[static_cast<std::size_t>(k)]);
+  }
+  return sub;
+}
+
+std::vector<int> partition_objects_grouped(const PartitionInput& in, int nparts, int parts_per_group) {
+  const PartGroups groups = group_objects(in, nparts, parts_per_group);
+  if (groups.first.size() == 1) return partition_objects(in, nparts);
+  std::vector<int> part(in.box.size(), 0);
+  for (std::size_t g = 0; g < groups.first.size(); ++g) {
+    const std::vector<std::int32_t> members = group_members(groups, static_cast<int>(g));
+    const std::vector<int> local = partition_objects(group_input(in, members), groups.parts[g]);
+    for (std::size_t i = 0; i < members.size(); ++i)
+      part[static_cast<std::size_t>(members[i])] = groups.first[g] + local[i];
+  }
+  return part;
+}
+
 PartitionQuality partition_quality(const PartitionInput& in, const std::vector<int>& part, int nparts) {
   validate(in);
   if (nparts < 1) throw RuntimeFailure("partition_quality: nparts must be >= 1, got " + std::to_string(nparts));

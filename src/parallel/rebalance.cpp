@@ -120,12 +120,14 @@ std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector
   }
   // The parts of split objects on the ranks that evaluated them, in part_nodes' order.
   std::vector<std::size_t> host;
-  for (const std::vector<int>& h : hosts_in.empty() ? split_hosts(scene, part, nranks) : hosts_in)
+  for (const std::vector<int>& h : hosts_in.empty() ? split_hosts(scene, part, nranks) : hosts_in) {
+    if (h.empty()) throw RuntimeFailure("measured_weights: a split object without hosts");
     if (h.size() < nr)
       for (int r : std::vector<int>(h.begin() + 1, h.end())) {  // part 0 is the owner's, in its node
         if (r < 0 || static_cast<std::size_t>(r) >= nr) throw RuntimeFailure("measured_weights: a split part on rank " + std::to_string(r));
         host.push_back(static_cast<std::size_t>(r));
       }
+  }
   if (host.size() != nodes.work.size()) throw RuntimeFailure("measured_weights: the split objects' parts do not match");
   for (std::size_t j = 0; j < host.size(); ++j) S[host[j]] += static_cast<double>(w[no + j]);
   // Least squares for T = a S + b C over the ranks (normal equations, 2 x 2).
@@ -241,6 +243,60 @@ CutSearch shared_cut_search(MPI_Comm comm) {
   return search;
 }
 
+std::vector<int> partition_objects_over(const PartitionInput& in, int nparts, MPI_Comm comm, int parts_per_group) {
+  if (comm == MPI_COMM_NULL || comm_size(comm) == 1) return partition_objects_grouped(in, nparts, parts_per_group);
+  const PartGroups groups = group_objects(in, nparts, parts_per_group);
+  const int ng = static_cast<int>(groups.first.size());
+  if (ng == 1) return partition_objects(in, nparts, shared_cut_search(comm));
+  const int rank = comm_rank(comm), size = comm_size(comm);
+  if (size != nparts)
+    throw RuntimeFailure("partition_objects_over: " + std::to_string(nparts) + " parts on " + std::to_string(size) +
+                         " ranks (one part per rank)");
+  // This rank's group is the one holding its part; the group's ranks share its search.
+  int mine = 0;
+  while (mine + 1 < ng && groups.first[static_cast<std::size_t>(mine) + 1] <= rank) ++mine;
+  const std::vector<std::int32_t> members = group_members(groups, mine);
+  MPI_Comm group_comm = MPI_COMM_NULL;
+  MPI_Comm_split(comm, mine, rank, &group_comm);
+  std::vector<int> local;
+  std::string failed;
+  try {
+    local = partition_objects(group_input(in, members), groups.parts[static_cast<std::size_t>(mine)],
+                              shared_cut_search(group_comm));
+  } catch (const RuntimeFailure& e) {
+    failed = e.what();  // every rank of the group throws it (CutSearch); tell the others
+  }
+  MPI_Comm_free(&group_comm);
+  int bad = failed.empty() ? 0 : 1;
+  MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+  if (bad) throw RuntimeFailure(failed.empty() ? "partition_objects_over: METIS failed in another group (its ranks report why)" : failed);
+  // Each group's first rank sends its parts; every rank puts them back by object.
+  std::vector<int> counts(static_cast<std::size_t>(size), 0), displs(static_cast<std::size_t>(size), 0);
+  std::vector<std::vector<std::int32_t>> member_lists(static_cast<std::size_t>(ng));
+  int total = 0;
+  for (int g = 0; g < ng; ++g) {
+    member_lists[static_cast<std::size_t>(g)] = group_members(groups, g);
+    const int leader = groups.first[static_cast<std::size_t>(g)];
+    counts[static_cast<std::size_t>(leader)] = static_cast<int>(member_lists[static_cast<std::size_t>(g)].size());
+  }
+  for (int r = 0; r < size; ++r) {
+    displs[static_cast<std::size_t>(r)] = total;
+    total += counts[static_cast<std::size_t>(r)];
+  }
+  const bool leader = groups.first[static_cast<std::size_t>(mine)] == rank;
+  std::vector<int> all(static_cast<std::size_t>(total) + 1, 0);
+  MPI_Allgatherv(local.data(), leader ? static_cast<int>(local.size()) : 0, MPI_INT, all.data(), counts.data(),
+                 displs.data(), MPI_INT, comm);
+  std::vector<int> part(in.box.size(), 0);
+  for (int g = 0; g < ng; ++g) {
+    const auto& m = member_lists[static_cast<std::size_t>(g)];
+    const int at = displs[static_cast<std::size_t>(groups.first[static_cast<std::size_t>(g)])];
+    for (std::size_t i = 0; i < m.size(); ++i)
+      part[static_cast<std::size_t>(m[i])] = groups.first[static_cast<std::size_t>(g)] + all[static_cast<std::size_t>(at) + i];
+  }
+  return part;
+}
+
 std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes, int nranks,
                               std::vector<std::int64_t> weights, MPI_Comm comm, SplitHosts* hosts) {
   const std::size_t no = scene.objects.size();
@@ -271,7 +327,7 @@ std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes, int nr
     boxes.push_back(b);
   }
   in.box = std::move(boxes);
-  std::vector<int> part = partition_objects(in, nranks, shared_cut_search(comm));
+  std::vector<int> part = partition_objects_over(in, nranks, comm);
   if (hosts) {
     // Per candidate: every rank in order, or its owner (part 0) and its part nodes' ranks.
     std::size_t j = 0;

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <mpi.h>
 
+#include <algorithm>
 #include <random>
 #include <set>
 
@@ -71,4 +72,30 @@ TEST(CutSearch, SharedOverRanksIsTheSmallestCutOfTheSerialCandidates) {
   }
   // The choice has to matter for the comparison to mean anything.
   EXPECT_GE(cases_with_distinct_candidates, 6);
+}
+
+// Groups (partition_objects_over): each rank computes the group holding its part, the
+// group's ranks sharing its METIS runs, and one all-gather gives every rank the whole
+// partition. Reference: the serial partition_objects_grouped, which computes every group
+// in one process. With one part per group the groups are the bisection itself; with two
+// (on 3 and 4 ranks) two ranks share a group's search; with 8 (the default) one group on
+// up to 8 ranks, the ungrouped partition.
+TEST(CutSearch, GroupsSharedOverRanksAreTheSerialGroupedPartition) {
+  const int size = comm_size(MPI_COMM_WORLD);
+  for (std::uint64_t seed : {4u, 5u}) {
+    const PartitionInput in = scattered(600, seed);
+    for (int per_group : {1, 2, kPartsPerGroup}) {
+      const std::vector<int> shared = partition_objects_over(in, size, MPI_COMM_WORLD, per_group);
+      const std::vector<int> serial = partition_objects_grouped(in, size, per_group);
+      EXPECT_EQ(shared, serial) << size << " ranks, " << per_group << " parts per group, seed " << seed;
+      std::vector<int> used(static_cast<std::size_t>(size), 0);
+      for (int p : shared) {
+        ASSERT_GE(p, 0);
+        ASSERT_LT(p, size);
+        used[static_cast<std::size_t>(p)] = 1;
+      }
+      EXPECT_EQ(std::count(used.begin(), used.end(), 1), size) << "a rank without objects";
+    }
+    EXPECT_EQ(partition_objects_over(in, size, MPI_COMM_WORLD), partition_objects(in, size));
+  }
 }

@@ -297,6 +297,9 @@ TEST(SplitParts, ThePartitionKeepsRoomForThePartsAndTheirRanksTakeThem) {
   for (std::size_t r = 0; r < 4; ++r) EXPECT_NEAR(per_rank[r], 1e6 * seconds[r], 70.0) << "rank " << r;
   EXPECT_NO_THROW((void)partition_at(s, boxes, 4, w));
   EXPECT_THROW((void)partition_at(s, boxes, 4, std::vector<std::int64_t>(w.begin(), w.end() - 1)), RuntimeFailure);
+  // Hosts that do not fit: a split object without any, or a part on no rank.
+  EXPECT_THROW((void)measured_weights(s, part, seconds, {}, SplitHosts{{}}), RuntimeFailure);
+  EXPECT_THROW((void)measured_weights(s, part, seconds, {}, SplitHosts{{placed[0][0], placed[0][1], 4}}), RuntimeFailure);
   // 3 ranks: one part per rank, in rank order.
   const std::vector<int> three = partition_at(s, boxes, 3, {}, MPI_COMM_NULL, &placed);
   EXPECT_EQ(placed, (SplitHosts{{0, 1, 2}}));
