@@ -55,17 +55,23 @@ void BM_InitialPartition(benchmark::State& state) {
   state.SetComplexityN(state.range(0));
 }
 
-// The object graph's edges alone (boxes_within plus the weights), on the lattice and on
-// a dense pile: n boxes of 0.6 to 1.4 at random in a cube holding about 1.5 per unit of
-// volume, reach 1 (each box near about 20 others; seed fixed).
-void BM_ObjectGraphLattice(benchmark::State& state) {
-  const Scene scene = lattice(static_cast<int>(state.range(0)));
+// The lattice's objects as the partition's input: their boxes and tets, reach 1.
+PartitionInput lattice_input(int n) {
+  const Scene scene = lattice(n);
   PartitionInput in;
   for (const SceneObject& o : scene.objects) {
     in.box.push_back(o.shape->box);
-    in.weight.push_back(1);
+    in.weight.push_back(static_cast<std::int64_t>(o.shape->tets));
   }
   in.reach = 1.0;
+  return in;
+}
+
+// The object graph's edges alone (boxes_within plus the weights), on the lattice and on
+// a dense pile: n boxes of 0.6 to 1.4 at random in a cube holding about 1.5 per unit of
+// volume, reach 1 (each box near about 96 others; seed fixed).
+void BM_ObjectGraphLattice(benchmark::State& state) {
+  const PartitionInput in = lattice_input(static_cast<int>(state.range(0)));
   for (auto _ : state) benchmark::DoNotOptimize(object_graph_edges(in).data());
   state.SetComplexityN(state.range(0));
 }
@@ -93,13 +99,7 @@ void BM_ObjectGraphPile(benchmark::State& state) {
 // The bisection into groups of 8 parts that every rank computes past 8 ranks
 // (group_objects): the lattice's objects into state.range(1) parts.
 void BM_GroupObjects(benchmark::State& state) {
-  const Scene scene = lattice(static_cast<int>(state.range(0)));
-  PartitionInput in;
-  for (const SceneObject& o : scene.objects) {
-    in.box.push_back(o.shape->box);
-    in.weight.push_back(static_cast<std::int64_t>(o.shape->tets));
-  }
-  in.reach = 1.0;
+  const PartitionInput in = lattice_input(static_cast<int>(state.range(0)));
   const int parts = static_cast<int>(state.range(1));
   for (auto _ : state) benchmark::DoNotOptimize(group_objects(in, parts).group.data());
   state.SetComplexityN(state.range(0));
