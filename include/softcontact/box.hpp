@@ -111,7 +111,8 @@ void sweep_pairs(const std::vector<Box>& box, const std::vector<std::int32_t>& i
 /// in a hierarchy of uniform grids (src/core/box_grid.cpp): O(n log n + pairs near each
 /// other), whatever the boxes' sizes and arrangement, where a sweep along one axis
 /// compares every box with all those whose interval along that axis meets its own.
-/// Boxes must be finite and not empty.
+/// Throws RuntimeFailure for a box that is empty or not finite, or a negative or
+/// non-finite reach.
 std::vector<std::pair<std::int32_t, std::int32_t>> boxes_within(const std::vector<Box>& box, double reach);
 
 /// Grows `b` to hold the point p (3 doubles). Unlike Box::add, a NaN coordinate is not

@@ -23,10 +23,12 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <string>
 #include <utility>
 #include <vector>
 
 #include "softcontact/box.hpp"
+#include "softcontact/error.hpp"
 
 namespace softcontact {
 namespace {
@@ -51,6 +53,13 @@ std::uint64_t pack(const std::array<std::int64_t, 3>& c) {
 std::vector<std::pair<std::int32_t, std::int32_t>> boxes_within(const std::vector<Box>& box, double reach) {
   std::vector<std::pair<std::int32_t, std::int32_t>> out;
   const std::size_t n = box.size();
+  if (!std::isfinite(reach) || reach < 0) throw RuntimeFailure("boxes_within: reach must be finite and >= 0");
+  if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
+    throw RuntimeFailure("boxes_within: too many boxes (" + std::to_string(n) + ")");
+  for (std::size_t k = 0; k < n; ++k)
+    for (int d = 0; d < 3; ++d)
+      if (!std::isfinite(box[k].lo[d]) || !std::isfinite(box[k].hi[d]) || box[k].lo[d] > box[k].hi[d])
+        throw RuntimeFailure("boxes_within: box " + std::to_string(k) + " is empty or not finite");
   if (n < 2) return out;
 
   std::array<double, 3> origin, top;

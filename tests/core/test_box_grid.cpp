@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "softcontact/box.hpp"
+#include "softcontact/error.hpp"
 
 using namespace softcontact;
 
@@ -88,5 +89,8 @@ TEST(BoxesWithin, OneBoxSpanningAllAndFlatColumns) {
   for (int k = 0; k < 200; ++k) box.push_back(make_box(0, 50, 0.05 * k, 100, 0.3, 0.04));  // stacked along z
   expect_same_pairs(box, 0.2);
   expect_same_pairs({}, 1.0);
+  EXPECT_THROW((void)boxes_within({make_box(0, 0, 0, 1, 1, 1), Box::none()}, 1.0), RuntimeFailure);
+  EXPECT_THROW((void)boxes_within({make_box(0, 0, 0, 1, 1, 1)}, -1.0), RuntimeFailure);
+  EXPECT_THROW((void)boxes_within({make_box(0, 0, std::nan(""), 1, 1, 1)}, 1.0), RuntimeFailure);
   expect_same_pairs({make_box(0, 0, 0, 1, 1, 1)}, 1.0);
 }
