@@ -120,8 +120,8 @@ struct PartGroups {
 /// O(n log n) per level, log2(nparts / parts_per_group) levels; identical on every rank.
 PartGroups group_objects(const PartitionInput& in, int nparts, int parts_per_group = kPartsPerGroup);
 
-/// The objects of group g, ascending.
-std::vector<std::int32_t> group_members(const PartGroups& groups, int g);
+/// Per group, its objects ascending (one pass over the objects).
+std::vector<std::vector<std::int32_t>> group_members(const PartGroups& groups);
 
 /// The input restricted to `members` (in their order), with the same reach.
 PartitionInput group_input(const PartitionInput& in, const std::vector<std::int32_t>& members);

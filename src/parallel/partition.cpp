@@ -371,10 +371,10 @@ PartGroups group_objects(const PartitionInput& in, int nparts, int parts_per_gro
   return g;
 }
 
-std::vector<std::int32_t> group_members(const PartGroups& groups, int g) {
-  std::vector<std::int32_t> out;
+std::vector<std::vector<std::int32_t>> group_members(const PartGroups& groups) {
+  std::vector<std::vector<std::int32_t>> out(groups.first.size());
   for (std::size_t k = 0; k < groups.group.size(); ++k)
-    if (groups.group[k] == g) out.push_back(static_cast<std::int32_t>(k));
+    out[static_cast<std::size_t>(groups.group[k])].push_back(static_cast<std::int32_t>(k));
   return out;
 }
 
@@ -394,8 +394,9 @@ std::vector<int> partition_objects_grouped(const PartitionInput& in, int nparts,
   const PartGroups groups = group_objects(in, nparts, parts_per_group);
   if (groups.first.size() == 1) return partition_objects(in, nparts);
   std::vector<int> part(in.box.size(), 0);
+  const std::vector<std::vector<std::int32_t>> lists = group_members(groups);
   for (std::size_t g = 0; g < groups.first.size(); ++g) {
-    const std::vector<std::int32_t> members = group_members(groups, static_cast<int>(g));
+    const std::vector<std::int32_t>& members = lists[g];
     const std::vector<int> local = partition_objects(group_input(in, members), groups.parts[g]);
     for (std::size_t i = 0; i < members.size(); ++i)
       part[static_cast<std::size_t>(members[i])] = groups.first[g] + local[i];

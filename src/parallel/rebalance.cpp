@@ -255,7 +255,8 @@ std::vector<int> partition_objects_over(const PartitionInput& in, int nparts, MP
   // This rank's group is the one holding its part; the group's ranks share its search.
   int mine = 0;
   while (mine + 1 < ng && groups.first[static_cast<std::size_t>(mine) + 1] <= rank) ++mine;
-  const std::vector<std::int32_t> members = group_members(groups, mine);
+  const std::vector<std::vector<std::int32_t>> member_lists = group_members(groups);
+  const std::vector<std::int32_t>& members = member_lists[static_cast<std::size_t>(mine)];
   MPI_Comm group_comm = MPI_COMM_NULL;
   MPI_Comm_split(comm, mine, rank, &group_comm);
   std::vector<int> local;
@@ -272,10 +273,8 @@ std::vector<int> partition_objects_over(const PartitionInput& in, int nparts, MP
   if (bad) throw RuntimeFailure(failed.empty() ? "partition_objects_over: METIS failed in another group (its ranks report why)" : failed);
   // Each group's first rank sends its parts; every rank puts them back by object.
   std::vector<int> counts(static_cast<std::size_t>(size), 0), displs(static_cast<std::size_t>(size), 0);
-  std::vector<std::vector<std::int32_t>> member_lists(static_cast<std::size_t>(ng));
   int total = 0;
   for (int g = 0; g < ng; ++g) {
-    member_lists[static_cast<std::size_t>(g)] = group_members(groups, g);
     const int leader = groups.first[static_cast<std::size_t>(g)];
     counts[static_cast<std::size_t>(leader)] = static_cast<int>(member_lists[static_cast<std::size_t>(g)].size());
   }
