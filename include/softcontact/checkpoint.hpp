@@ -10,6 +10,10 @@
 //   /run/scene                             (bytes)        the scene file's text
 //   /run/partition                         (objects,) int32, rank of each object
 //   /run/boxes                             (objects,6) float64, each object's box
+//   /run/split_hosts                       (n,) int32: the split objects' hosts
+//                                          (SplitHosts): their count, then per object
+//                                          its number of parts and each part's rank;
+//                                          absent in checkpoints written before it
 //   attributes of /run: format, step, time, dt, steps, output_every, frames, ranks,
 //   anchor_step, vertices, fingerprint, energy0, energy_scale, scene_path, output_dir
 //
@@ -22,6 +26,7 @@
 #include <vector>
 
 #include "softcontact/partition.hpp"
+#include "softcontact/rebalance.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/step_state.hpp"
 #include "softcontact/world.hpp"
@@ -49,6 +54,9 @@ struct CheckpointInfo {
   std::string output_dir;         ///< the run's output directory (absolute)
   std::vector<int> partition;     ///< object -> rank
   std::vector<Box> boxes;   ///< object boxes at this step
+  /// Per split object: the rank of each part (Simulator::split_hosts). A restart on the
+  /// same rank count hands them to the Simulator; empty when the checkpoint has none.
+  SplitHosts split_hosts;
 };
 
 /// A hash of everything in a loaded scene that results depend on: meshes (positions and

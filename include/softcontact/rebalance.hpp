@@ -69,6 +69,11 @@ std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes,
 /// rank.
 SplitHosts split_hosts(const Scene& scene, const std::vector<int>& partition, int nranks);
 
+/// Whether `hosts` can stand for split_hosts(scene, partition, nranks): one list per split
+/// object, as many parts, part 0 on the object's owner, every rank in [0, nranks). What
+/// the Simulator and a restart check hosts handed to them against.
+bool split_hosts_fit(const Scene& scene, const std::vector<int>& partition, int nranks, const SplitHosts& hosts);
+
 /// The CutSearch of the ranks of `comm` (none for MPI_COMM_NULL or one rank): each runs
 /// its candidates, the best is found by two MPI_Allreduce and broadcast by its rank.
 CutSearch shared_cut_search(MPI_Comm comm);

@@ -65,6 +65,8 @@ struct RunSummary {
   std::int64_t ghost_rebuilds = 0, repartitions = 0;
   /// Objects whose forces were shared over ranks, and over how many.
   int split_objects = 0, split_ranks = 0;
+  /// Where the split objects' parts were at the end (Simulator::split_hosts).
+  SplitHosts split_hosts;
 };
 
 /// Applies the overrides to the scene's simulation settings.

@@ -157,6 +157,8 @@ public:
   /// (ranks evaluating them) of one: split_part_count; the same on every rank.
   int split_objects() const { return split_count_; }
   int split_ranks() const { return split_ranks_; }
+  /// Per split object (split_candidates, ascending): the rank that evaluates each part.
+  const SplitHosts& split_hosts() const { return split_hosts_; }
   /// Ghost-set rebuilds so far (the halo grows and shrinks as objects move).
   std::int64_t ghost_rebuilds() const;
   /// The ghost-set tests so far and the object boxes this rank received for them (GhostSet).

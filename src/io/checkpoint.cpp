@@ -125,6 +125,14 @@ void write_checkpoint(MPI_Comm comm, const std::string& path, const World& w, co
     boxes.insert(boxes.end(), {b.lo[0], b.lo[1], b.lo[2], b.hi[0], b.hi[1], b.hi[2]});
   h5::write_rows(run, "partition", nobj, 1, mine, part.data());
   h5::write_rows(run, "boxes", nobj, 6, mine, boxes.data());
+  std::vector<std::int32_t> hosts{static_cast<std::int32_t>(info.split_hosts.size())};
+  for (const std::vector<int>& h : info.split_hosts) {
+    hosts.push_back(static_cast<std::int32_t>(h.size()));
+    hosts.insert(hosts.end(), h.begin(), h.end());
+  }
+  const auto nhosts = static_cast<gid_t>(hosts.size());
+  h5::write_rows(run, "split_hosts", nhosts, 1, rank == 0 ? h5::all_rows(nhosts) : std::vector<GidRun>{},
+                 hosts.data());
   const auto text_size = static_cast<gid_t>(info.scene_text.size());
   h5::write_rows(run, "scene", text_size, 1, rank == 0 ? h5::all_rows(text_size) : std::vector<GidRun>{},
                  info.scene_text.data());
@@ -207,6 +215,11 @@ CheckpointInfo read_checkpoint_info(MPI_Comm comm, const std::string& path) {
       pack(buf, i.partition.size());
       for (int p : i.partition) pack(buf, p);
       for (const Box& b : i.boxes) pack(buf, b);
+      pack(buf, i.split_hosts.size());
+      for (const std::vector<int>& h : i.split_hosts) {
+        pack(buf, h.size());
+        for (int r : h) pack(buf, r);
+      }
     } catch (const InputError& e) {
       error = e.what();
     }
@@ -239,6 +252,15 @@ CheckpointInfo read_checkpoint_info(MPI_Comm comm, const std::string& path) {
   i.boxes.resize(no);
   for (int& p : i.partition) u.get(p);
   for (Box& b : i.boxes) u.get(b);
+  std::size_t nsplit = 0;
+  u.get(nsplit);
+  i.split_hosts.resize(nsplit);
+  for (std::vector<int>& h : i.split_hosts) {
+    std::size_t parts = 0;
+    u.get(parts);
+    h.resize(parts);
+    for (int& r : h) u.get(r);
+  }
   return i;
 }
 

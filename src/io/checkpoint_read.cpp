@@ -149,6 +149,26 @@ CheckpointInfo read_run_checked(hid_t file, const std::string& path) {
           throw RuntimeFailure("the box of object " + std::to_string(k) + " in /run/boxes is not finite or inside out");
       info.boxes.push_back(Box{{b[0], b[1], b[2]}, {b[3], b[4], b[5]}});
     }
+    // Optional (checkpoints from before 2026-11-29 have none): count, then per split
+    // object its parts and their ranks, each a rank of the run that wrote it.
+    const gid_t nh = rows_within_file(run, "split_hosts", sizeof(std::int32_t), file_bytes);
+    if (nh > 0) {
+      std::vector<std::int32_t> h(static_cast<std::size_t>(nh));
+      h5::read_rows(run, "split_hosts", nh, 1, h5::all_rows(nh), h.data(), path, false);
+      std::size_t at = 1;
+      auto bad = [&](const std::string& why) { throw RuntimeFailure("/run/split_hosts " + why); };
+      if (h[0] < 0 || static_cast<gid_t>(h[0]) >= nh) bad("names " + std::to_string(h[0]) + " split objects");
+      info.split_hosts.resize(static_cast<std::size_t>(h[0]));
+      for (std::vector<int>& list : info.split_hosts) {
+        if (at >= h.size() || h[at] < 1 || static_cast<std::size_t>(h[at]) > h.size() - at - 1)
+          bad("is cut short or names a split object of no parts");
+        list.assign(h.begin() + static_cast<std::ptrdiff_t>(at) + 1, h.begin() + static_cast<std::ptrdiff_t>(at) + 1 + h[at]);
+        at += 1 + static_cast<std::size_t>(h[at]);
+        for (int r : list)
+          if (r < 0 || r >= info.ranks) bad("names rank " + std::to_string(r) + " of a run on " + std::to_string(info.ranks));
+      }
+      if (at != h.size()) bad("holds " + std::to_string(h.size() - at) + " values past its last split object");
+    }
     const gid_t chars = rows_within_file(run, "scene", 1, file_bytes);
     info.scene_text.assign(static_cast<std::size_t>(chars), '\0');
     h5::read_rows(run, "scene", chars, 1, h5::all_rows(chars), info.scene_text.data(), path, false);

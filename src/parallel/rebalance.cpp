@@ -94,6 +94,16 @@ SplitHosts split_hosts(const Scene& scene, const std::vector<int>& partition, in
   return hosts;
 }
 
+bool split_hosts_fit(const Scene& scene, const std::vector<int>& partition, int nranks, const SplitHosts& hosts) {
+  const SplitHosts shape = split_hosts(scene, partition, nranks);
+  bool fits = hosts.size() == shape.size();
+  for (std::size_t i = 0; fits && i < hosts.size(); ++i) {
+    fits = hosts[i].size() == shape[i].size() && !hosts[i].empty() && hosts[i][0] == shape[i][0];
+    for (int r : hosts[i]) fits = fits && r >= 0 && r < nranks;
+  }
+  return fits;
+}
+
 std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector<int>& part,
                                            const std::vector<double>& rank_seconds,
                                            const std::vector<std::int64_t>& contacts, const SplitHosts& hosts_in) {

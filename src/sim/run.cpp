@@ -286,6 +286,10 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     bool same = info.ranks == nranks && info.partition.size() == scene.objects.size();
     for (int r : info.partition) same = same && r >= 0 && r < nranks;
     partition = same ? info.partition : partition_at(scene, info.boxes, nranks, {}, comm, &hosts);
+    // The same rank count: the parts where they were. Hosts only place work, never
+    // change a result: where they do not fit (a checkpoint without them, or a split
+    // turned off since), the Simulator's split_hosts fallback places the parts.
+    if (same && split_hosts_fit(scene, partition, nranks, info.split_hosts)) hosts = info.split_hosts;
   }
   // Before the Simulator drops the meshes this rank does not need (whole-scene passes
   // would make them again): the fingerprint checkpoints carry, the failure guard's scales.
@@ -370,6 +374,7 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     info.dt = sim.dt;
     info.partition = simulator.partition();
     info.boxes = simulator.current_boxes();  // collective
+    info.split_hosts = simulator.split_hosts();
     info.steps = nsteps;
     info.output_every = every;
     info.frames = writer->frames_written();
@@ -436,6 +441,7 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
   summary.repartitions = simulator.repartitions() - repartitions0;
   summary.split_objects = simulator.split_objects();
   summary.split_ranks = simulator.split_ranks();
+  summary.split_hosts = simulator.split_hosts();
   if (stop_signal != 0) summary.stopped_by = signal_name(stop_signal);
   return summary;
 }

@@ -47,16 +47,11 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
   for (int r : partition_)
     if (r < 0 || r >= nranks_) throw RuntimeFailure("Simulator: the partition names rank " + std::to_string(r));
   if (given) {
-    split_hosts_ = split_hosts(scene, partition_, nranks_);
+    split_hosts_ = softcontact::split_hosts(scene, partition_, nranks_);
     if (!hosts.empty()) {
-      // The partition's own hosts, where they have the shape of the fallback's: one list
-      // per split object, as many parts, part 0 on the owner.
-      bool fits = hosts.size() == split_hosts_.size();
-      for (std::size_t i = 0; fits && i < hosts.size(); ++i) {
-        fits = hosts[i].size() == split_hosts_[i].size() && !hosts[i].empty() && hosts[i][0] == split_hosts_[i][0];
-        for (int r : hosts[i]) fits = fits && r >= 0 && r < nranks_;
-      }
-      if (!fits) throw RuntimeFailure("Simulator: the split objects' hosts do not fit the partition");
+      // The partition's own hosts, where they have the shape of the fallback's.
+      if (!split_hosts_fit(scene, partition_, nranks_, hosts))
+        throw RuntimeFailure("Simulator: the split objects' hosts do not fit the partition");
       split_hosts_ = std::move(hosts);
     }
   }
@@ -450,7 +445,7 @@ void Simulator::maybe_rebalance() {
   if (next != partition_) migrate(next, std::move(hosts));
 }
 
-void Simulator::migrate(const std::vector<int>& next) { migrate(next, split_hosts(scene_, next, nranks_)); }
+void Simulator::migrate(const std::vector<int>& next) { migrate(next, softcontact::split_hosts(scene_, next, nranks_)); }
 
 void Simulator::migrate(const std::vector<int>& next, SplitHosts hosts) {
   split_hosts_ = std::move(hosts);

@@ -14,9 +14,11 @@
 #include <sstream>
 
 #include "output_compare.hpp"
+#include "soft_floor_scenes.hpp"
 #include "softcontact/checkpoint.hpp"
 #include "softcontact/error.hpp"
 #include "softcontact/mpi_util.hpp"
+#include "softcontact/rebalance.hpp"
 #include "softcontact/run.hpp"
 #include "softcontact/scene.hpp"
 
@@ -173,6 +175,110 @@ TEST(Restart, RankCountMatrixIsBitwise) {
       if (*c != MPI_COMM_NULL) MPI_Comm_free(c);
   }
   EXPECT_EQ(ran, n == 1 ? 0 : 2);
+  MPI_Barrier(MPI_COMM_WORLD);
+  if (rank == 0) fs::remove_all(dir);
+}
+
+// Where a split object's parts are evaluated is kept in the checkpoint
+// (/run/split_hosts): a restart on the same rank count puts them back where they were,
+// also where that differs from what split_hosts would choose from the partition alone.
+// A checkpoint without them (written before they were kept) continues with that choice;
+// one naming a rank the run did not have is refused, naming the file. The floor of
+// soft_floor_twelve is split from 3 ranks on (3 parts). Results are the uninterrupted
+// run's to the bit in every case: hosts place work, they never change a result.
+TEST(Restart, SameRankCountKeepsTheSplitObjectsHosts) {
+  const int rank = comm_rank(MPI_COMM_WORLD), n = comm_size(MPI_COMM_WORLD);
+  const fs::path dir = test::scratch_dir("sc_hosts");
+  RunOptions opt;
+  opt.quiet = true;
+  opt.overwrite = true;
+  std::ostringstream log;
+  Scene scene = test::soft_floor_twelve();
+  scene.sim.steps = 60;
+  scene.sim.output_every = 20;
+  scene.sim.output_interval = 0;
+  scene.sim.checkpoint_every = 20;
+  scene.sim.checkpoint_keep = 3;
+  scene.sim.output_dir = (dir / "all").string();
+  const RunSummary full = run_scene(MPI_COMM_WORLD, scene, opt, log);
+  if (n < 3) {
+    EXPECT_TRUE(full.split_hosts.empty()) << "no split object below 3 ranks";
+    MPI_Barrier(MPI_COMM_WORLD);
+    if (rank == 0) fs::remove_all(dir);
+    return;
+  }
+  ASSERT_EQ(full.repartitions, 0) << "the hosts below are those of the initial partition";
+  ASSERT_EQ(full.split_hosts.size(), 1u);
+  ASSERT_EQ(full.split_hosts[0].size(), 3u);
+  const std::string written = checkpoint_path((dir / "all").string(), 20);
+  const CheckpointInfo info = read_checkpoint_info(MPI_COMM_WORLD, written);
+  EXPECT_EQ(info.split_hosts, full.split_hosts);
+
+  // Hosts neither the run's nor the fallback's: part 0 stays on its rank, the other two
+  // go to the first pair of ranks that makes a list unlike both.
+  const std::vector<int> fallback = split_hosts(scene, info.partition, n)[0], was = full.split_hosts[0];
+  std::vector<int> moved;
+  for (int a = 0; a < n && moved.empty(); ++a)
+    for (int b = 0; b < n && moved.empty(); ++b) {
+      const std::vector<int> c{was[0], a, b};
+      if (a != b && a != was[0] && b != was[0] && c != fallback && c != was) moved = c;
+    }
+  ASSERT_EQ(moved.size(), 3u);
+
+  // Rewrites (or, with an empty list, deletes) /run/split_hosts of the continued run's checkpoint.
+  auto set_hosts = [&](const fs::path& run, const std::vector<std::int32_t>& values) {
+    if (rank != 0) return;
+    const hid_t f = H5Fopen(checkpoint_path(run.string(), 20).c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    ASSERT_GE(H5Ldelete(f, "/run/split_hosts", H5P_DEFAULT), 0);
+    if (!values.empty()) {
+      const hsize_t len = values.size();
+      const hid_t space = H5Screate_simple(1, &len, nullptr);
+      const hid_t d = H5Dcreate2(f, "/run/split_hosts", H5T_NATIVE_INT32, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+      ASSERT_GE(d, 0);
+      EXPECT_GE(H5Dwrite(d, H5T_NATIVE_INT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()), 0);
+      H5Dclose(d);
+      H5Sclose(space);
+    }
+    H5Fclose(f);
+  };
+  struct Case {
+    const char* name;
+    std::vector<std::int32_t> stored;
+    std::vector<int> expected;
+  };
+  const Case cases[] = {{"hosts moved", {1, 3, moved[0], moved[1], moved[2]}, moved},
+                        {"no hosts stored", {}, fallback}};
+  for (const Case& c : cases) {
+    const fs::path cont = dir / "cont";
+    if (rank == 0) copy_run(dir / "all", cont, 20);
+    set_hosts(cont, c.stored);
+    MPI_Barrier(MPI_COMM_WORLD);
+    RestartPoint restart;
+    const Scene again = load_restart(MPI_COMM_WORLD, cont.string(), restart);
+    EXPECT_EQ(restart.info.split_hosts, c.stored.empty() ? SplitHosts{} : SplitHosts{c.expected}) << c.name;
+    RunOptions ropt = opt;
+    ropt.overwrite = false;
+    const RunSummary r = run_scene(MPI_COMM_WORLD, again, ropt, log, &restart);
+    EXPECT_EQ(r.split_hosts, SplitHosts{c.expected}) << c.name;
+    MPI_Barrier(MPI_COMM_WORLD);
+    if (rank == 0) EXPECT_GT(test::expect_same_output(dir / "all", cont, c.name, 4), 4);
+  }
+
+  // A rank past the run's: refused on every rank, naming the file and the dataset.
+  const fs::path bad = dir / "bad";
+  if (rank == 0) copy_run(dir / "all", bad, 20);
+  set_hosts(bad, {1, 3, was[0], was[1], n});
+  MPI_Barrier(MPI_COMM_WORLD);
+  RestartPoint restart;
+  try {
+    load_restart(MPI_COMM_WORLD, bad.string(), restart);
+    ADD_FAILURE() << "hosts naming rank " << n << " of a run on " << n << " were accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("checkpoint_000000000020.h5"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("/run/split_hosts names rank " + std::to_string(n)), std::string::npos)
+        << e.what();
+  }
   MPI_Barrier(MPI_COMM_WORLD);
   if (rank == 0) fs::remove_all(dir);
 }
