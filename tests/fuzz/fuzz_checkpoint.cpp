@@ -111,6 +111,7 @@ fuzz::H5Model valid_checkpoint(const Scene& scene, const std::string& text) {
   m.push_back(fuzz::dataset("/state", "anchor_bary", H5Kind::f64, {nv, 3 * na}, std::vector<double>(3 * na * nv, 0.0)));
   m.push_back(fuzz::dataset("/run", "partition", H5Kind::i32, {nobj}, part));
   m.push_back(fuzz::dataset("/run", "boxes", H5Kind::f64, {nobj, 6}, boxes));
+  m.push_back(fuzz::dataset("/run", "split_hosts", H5Kind::i32, {1}, {0.0}));  // no split object on 1 rank
   fuzz::H5Entry scene_text = fuzz::dataset("/run", "scene", H5Kind::u8, {static_cast<hsize_t>(text.size())}, chars);
   scene_text.text = text;
   m.push_back(scene_text);
@@ -226,6 +227,10 @@ void restart_from(hid_t file) {
                 "a run description in range");
   for (const Box& b : info.boxes)
     for (int c = 0; c < 3; ++c) fuzz::require(std::isfinite(b.lo[c]) && std::isfinite(b.hi[c]) && b.lo[c] <= b.hi[c], "finite boxes");
+  for (const std::vector<int>& h : info.split_hosts) {
+    fuzz::require(!h.empty(), "a split object of at least one part");
+    for (int r : h) fuzz::require(r >= 0 && r < info.ranks, "split hosts among the run's ranks");
+  }
   for (double v : rows.x) fuzz::require(std::isfinite(v), "finite positions");
   constexpr std::size_t na = StictionAnchor::kPerPoint;
   for (std::size_t e = 0; e < na * static_cast<std::size_t>(nv); ++e) {
@@ -272,7 +277,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   fuzz::H5Model m = valid_checkpoint(scene, text);
   static const std::vector<std::string> groups = {"/", "/run", "/state"};
   static const std::vector<std::string> names = {"format", "step", "x", "partition", "boxes", "scene", "run", "state",
-                                                 "fingerprint", "scene_path", "extra"};
+                                                 "fingerprint", "scene_path", "split_hosts", "extra"};
   for (int k = 0; k < 16 && in.remaining_bytes() > 0; ++k) {
     if (in.ConsumeBool()) fuzz::mutate(m, in, groups, names);
     else edit(m, in, scene, layout);
