@@ -199,6 +199,9 @@ private:
   void follow_ghosts();
   // Drops the meshes of the objects this rank neither owns nor ghosts (Scene::drop_meshes).
   void drop_unneeded_meshes();
+  // Hands the pages of the meshes dropped since the last call back to the system
+  // (malloc_trim), after the allocations that follow a drop have reused what they could.
+  void trim_dropped();
   /// The meshes of single-copy entries made by one rank (SceneObject::maker) go from that
   /// rank to their owner, if another, before the World is built: the owner neither reads
   /// the file again nor generates the primitive again. Collective.
@@ -237,6 +240,7 @@ private:
   bool split_dirty_ = true;                    // the World was replaced since the split plan was made
   int split_count_ = 0, split_ranks_ = 0;      // split objects, the most parts (ranks) of one
   std::int64_t split_doubles_before_ = 0;      // sent by the SplitForces replaced so far
+  std::size_t dropped_bytes_ = 0;              // mesh bytes dropped and not yet trimmed (trim_dropped)
   std::int64_t split_ghost_generation_ = -1;   // GhostSet::rebuilds() when the split's ghost holders were shared
   std::map<int, std::vector<std::int32_t>> split_parts_;  // object -> its tets' parts (split_part_count of them)
 };

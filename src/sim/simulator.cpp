@@ -80,6 +80,7 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
   stage("split plan");
   core_->start(ghosts_->exchange());
   ghosts_->update(world_.x_prev.data());
+  trim_dropped();
   stage("start");
 }
 
@@ -172,6 +173,7 @@ void Simulator::follow_ghosts() {
   drop_unneeded_meshes();
   core_->make_detector();
   core_->resize();
+  trim_dropped();
 }
 
 // The mean and median of the scene's tet edges from each rank's own objects: no rank
@@ -234,14 +236,20 @@ void Simulator::drop_unneeded_meshes() {
   std::vector<char> keep(scene_.objects.size(), 0);
   for (int k : world_.owned_objects) keep[static_cast<std::size_t>(k)] = 1;
   for (int k : world_.ghost_objects) keep[static_cast<std::size_t>(k)] = 1;
-  const std::size_t bytes = scene_.drop_meshes(keep);
+  dropped_bytes_ += scene_.drop_meshes(keep);
+}
+
+// Not at the drop itself: the first set-up stages after it (the forces' per-tet data,
+// the detector) reuse the freed heap, and trimming first made them fault the same pages
+// in again (a third more page faults per rank at 2 ranks than at 1, +8 ms of the
+// "components" stage alone; docs/benchmarks.md).
+void Simulator::trim_dropped() {
 #ifdef __GLIBC__
   // Meshes are many small blocks inside the heap: hand their pages back to the system,
   // or the resident size keeps them.
-  if (bytes > 0) malloc_trim(0);
-#else
-  (void)bytes;
+  if (dropped_bytes_ > 0) malloc_trim(0);
 #endif
+  dropped_bytes_ = 0;
 }
 
 std::int64_t Simulator::halo_bytes() const { return ghosts_->bytes_received(); }
