@@ -81,6 +81,11 @@ struct BenchResult {
   /// The same from process CPU seconds of forces, detection and depth (PhaseTimes::work_cpu,
   /// what the rebalance weighs): meaningful also when ranks share cores.
   double cpu_imbalance = 1;
+  /// Per phase, a rank's own seconds per timed step (its phase times summed over the
+  /// timed steps / steps), the largest and the mean over ranks: which phase one rank
+  /// holds the others up in (a phase's time includes that rank's waits inside it). The
+  /// max is at most the mean over steps of `seconds` (each step's max over ranks).
+  PhaseTimes phase_rank_max, phase_rank_mean;
   /// Collision records whose triangle lies on another rank's object / all records.
   double cross_rank_fraction = 0;
   /// Objects split for their forces (at the end), and their exchanges: bytes sent per

@@ -245,6 +245,18 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
     r.edge_pairs_mean = n > 0 ? static_cast<double>(edge_pairs) / static_cast<double>(n) : 0;
   }
 
+  {
+    // Each rank's phase totals before the per-step max over ranks below.
+    double mine[kNumPhases] = {}, most[kNumPhases] = {}, all[kNumPhases] = {};
+    for (std::int64_t i = 0; i < n; ++i)
+      for (int c = 0; c < kNumPhases; ++c) mine[c] += secs[static_cast<std::size_t>(kD * i + c)];
+    MPI_Allreduce(mine, most, kNumPhases, MPI_DOUBLE, MPI_MAX, comm);
+    MPI_Allreduce(mine, all, kNumPhases, MPI_DOUBLE, MPI_SUM, comm);
+    for (int c = 0; c < kNumPhases; ++c) {
+      r.phase_rank_max.*(kPhases[c].member) = most[c] / static_cast<double>(n);
+      r.phase_rank_mean.*(kPhases[c].member) = all[c] / static_cast<double>(n) / size;
+    }
+  }
   MPI_Allreduce(MPI_IN_PLACE, secs.data(), static_cast<int>(secs.size()), MPI_DOUBLE, MPI_MAX, comm);
   MPI_Allreduce(MPI_IN_PLACE, counts.data(), static_cast<int>(counts.size()), MPI_INT64_T, MPI_SUM, comm);
   double loop = r.loop_seconds;
@@ -344,6 +356,17 @@ void print_bench_table(std::ostream& out, const BenchResult& r) {
   if (r.ranks > 1)
     out << "  load imbalance (compute, max/mean over ranks): wall " << fixed(r.compute_imbalance, 3) << ", CPU "
         << fixed(r.cpu_imbalance, 3) << "; collisions crossing ranks: " << fixed(100 * r.cross_rank_fraction, 1) << "%\n";
+  if (r.ranks > 1) {
+    out << "  per phase, a rank's ms per step (max / mean over ranks):";
+    bool first = true;
+    for (const PhaseColumn& p : kPhases) {
+      const double most = r.phase_rank_max.*(p.member), mean = r.phase_rank_mean.*(p.member);
+      if (most <= 0) continue;
+      out << (first ? " " : ", ") << p.label << " " << fixed(1e3 * most, 3) << " / " << fixed(1e3 * mean, 3);
+      first = false;
+    }
+    out << "\n";
+  }
 }
 
 std::string bench_csv_header() {

@@ -110,6 +110,15 @@ TEST(Bench, PerStepRowsCarryTheSimulatorsCollisionCounts) {
   EXPECT_GT(r.steps_per_second(), 0.0);
   EXPECT_GT(r.rss_max_mib, 0.0);
 
+  // One rank: its own phase seconds per step are the steps' (max over one rank) mean.
+  for (auto member : {&PhaseTimes::forces, &PhaseTimes::integrate, &PhaseTimes::detect, &PhaseTimes::depth,
+                      &PhaseTimes::contact, &PhaseTimes::comm, &PhaseTimes::output}) {
+    double sum = 0;
+    for (const BenchStep& s : r.steps) sum += s.seconds.*member;
+    EXPECT_DOUBLE_EQ(r.phase_rank_max.*member, sum / kSteps);
+    EXPECT_DOUBLE_EQ(r.phase_rank_mean.*member, sum / kSteps);
+  }
+
   // The per-step CSV: a header and one row per timed step, collisions as above.
   std::stringstream csv;
   write_per_step_csv(csv, r);
