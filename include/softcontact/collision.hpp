@@ -45,6 +45,12 @@ struct Collision {
   bool fallback = false;                ///< depth not from the consistent depth: entry rule or nearest surface triangle
 };
 
+/// The order of a step's records, the same on any number of ranks: by the point's global
+/// id, then the triangle's.
+inline bool record_order(const Collision& a, const Collision& b) {
+  return a.point_gid != b.point_gid ? a.point_gid < b.point_gid : a.triangle_gid < b.triangle_gid;
+}
+
 /// Per-step counts for the diagnostics.
 struct CollisionStats {
   std::int64_t colliding_points = 0;    ///< distinct vertices inside another body
@@ -145,6 +151,20 @@ public:
   /// x^t at the start of the step, for the tunnelling diagnostic and the depth's entry
   /// rule (null at the initial positions: neither applies).
   void detect(const World& world, const double* x_start, std::vector<Collision>& out, CollisionStats& stats);
+
+  /// Delegates the points of `objects` (global indices; objects split over ranks,
+  /// docs/architecture.md, "Contact of a split object"): their surface points, owned here
+  /// or ghosts, are tested against the tets of this rank's own objects only, so that each
+  /// record of such a point inside a body B is made by B's owner (and sent to the point's
+  /// owner by the caller). Their records come out of detect() like any other, the ghost
+  /// points' with ghost indices; the distinct points among them are not counted in
+  /// CollisionStats::colliding_points but listed in delegated_points(). A ghost object's
+  /// self-contact is never tested (its owner's), delegated or not. Not for edge contacts
+  /// (they read every vertex record of the point's body). Empty: none (the default).
+  void delegate(std::vector<std::int32_t> objects);
+  /// After detect(): the distinct points (local indices, ascending) of delegated objects
+  /// that are inside a body this call.
+  const std::vector<index_t>& delegated_points() const;
 
   /// Item 7 of "Penetration vectors" (docs/collision.md), after detect(): the keys of the
   /// records that can be one half of a mutual pair (vertex records between two bodies

@@ -89,6 +89,10 @@ struct TetCandidate {
   Box box;
   PointView pts;
   std::vector<std::uint32_t>& passed;  // point indices k, reused per thread
+  // A tet of a ghost object meets no point of a delegated object (per slot): those are
+  // found by the owners of the bodies they enter (CollisionDetector::delegate).
+  bool ghost_tet = false;
+  const std::uint8_t* delegated = nullptr;
 
   std::size_t count = 0;                // points collected so far (passed[0 .. count))
 
@@ -149,6 +153,7 @@ struct TetCandidate {
       const index_t v = pts.point[k];
       if (topo.vertex_slot[static_cast<std::size_t>(v)] == slot && (tv[0] == v || tv[1] == v || tv[2] == v || tv[3] == v))
         continue;  // own object (self-collisions only): a tet incident to v does not count
+      if (ghost_tet && delegated[static_cast<std::size_t>(pts.label[k])]) continue;  // the tet's owner finds it
       if (faces.contains({px[3 * k], px[3 * k + 1], px[3 * k + 2]})) out.push_back({v, tet});
     }
     return true;
@@ -199,6 +204,12 @@ struct CollisionDetector::Impl {
   SelfCulling culling;                      // with self-collisions: which objects can fold
   std::vector<std::uint8_t> self_active;    // per slot, this step
   std::vector<double> self_delta;           // per slot: distance from the best rigid motion [m]
+  // Delegated objects (CollisionDetector::delegate): their points, owned or ghost, are
+  // tested here against the owned objects' tets only.
+  std::vector<std::int32_t> delegated_objects;  // global indices, ascending
+  std::vector<std::uint8_t> delegated;      // per slot
+  std::vector<std::uint8_t> owned;          // per slot: an object this rank owns
+  std::vector<index_t> delegated_points;    // this call's points of delegated objects with a pair, ascending
 
   // Candidates kept across steps (docs/collision.md, "Candidates kept across steps"): per
   // tet, the query points that the grid found within `kept_skin` of its box at the
@@ -324,13 +335,16 @@ void CollisionDetector::Impl::select_points(const World& w, double grow) {
   parallel_for(no, [&](std::size_t k, int) {
     object_points[k].clear();
     point_box[k].reset();
-    // Only owned points are queried: a ghost object's points are its owner's to query.
-    if (!object_active[k] || !w.owns_object(topo.objects[k].object)) return;
+    // Only owned points are queried: a ghost object's points are its owner's to query,
+    // but for a delegated object's, which are queried against the owned objects here
+    // (and its owned points only against those too).
+    if (!object_active[k] || (!owned[k] && !delegated[k])) return;
     for (index_t v : topo.objects[k].surface_vertices) {
       if (bad_vertex[static_cast<std::size_t>(v)]) continue;
       const V3 p = load(x, v);
       bool take = self_active[k] != 0;
       for (std::size_t q = 0; !take && q < partners[k].size(); ++q) {
+        if (delegated[k] && !owned[static_cast<std::size_t>(partners[k][q])]) continue;
         const Box& b = object_box[static_cast<std::size_t>(partners[k][q])];
         take = grow > 0 ? grown(b, grow).contains(p) : b.contains(p);
       }
@@ -355,6 +369,7 @@ void CollisionDetector::Impl::select_points(const World& w, double grow) {
       fb = reach;  // its own points may be inside it too
     } else if (object_active[b]) {
       for (std::int32_t a : partners[b]) {
+        if (!owned[b] && delegated[static_cast<std::size_t>(a)]) continue;  // not tested against a ghost
         const Box& pa = point_box[static_cast<std::size_t>(a)];
         if (pa.empty() || !pa.overlaps(reach)) continue;
         fb.add(pa.intersection(reach));
@@ -416,7 +431,7 @@ void CollisionDetector::Impl::narrow_phase(const World& w, CollisionStats& st, d
     if (r.empty()) return;
     auto& passed = passed_buf[static_cast<std::size_t>(t)];
     TetCandidate cand{w, topo, self_active[static_cast<std::size_t>(slot)] != 0, static_cast<index_t>(e), slot, box, pts,
-                      passed};
+                      passed, !owned[static_cast<std::size_t>(slot)], delegated.data()};
     if (r.count() > static_cast<double>(grid.num_points())) {
       // A box spanning more cells than there are points (a tet stretched far by a
       // blown-up simulation): cheaper to test every point than to visit the cells.
@@ -533,7 +548,7 @@ void CollisionDetector::Impl::narrow_kept(const World& w, CollisionStats& st) {
     box.reset();
     for (int c = 0; c < 4; ++c) box.add(load(x, tv[c]));
     TetCandidate cand{w, topo, self_active[static_cast<std::size_t>(slot)] != 0, kt.tet, slot, box, pts,
-                      passed_buf[static_cast<std::size_t>(t)]};
+                      passed_buf[static_cast<std::size_t>(t)], !owned[static_cast<std::size_t>(slot)], delegated.data()};
     cand.collect_list(kept_k.data() + kt.begin, kt.count);
     if (!cand.finish(hit_buf[static_cast<std::size_t>(t)])) ++counts[static_cast<std::size_t>(t)].degenerate;
   });
@@ -578,9 +593,16 @@ void CollisionDetector::Impl::group_pairs(const World& w, CollisionStats& st) {
       if (pairs[q].b == b) seen = true;
     if (!seen) pairs.push_back({a, b, {h.point, h.tet}});
   }
-  // Distinct points among the pairs (still sorted by point here).
-  for (std::size_t q = 0; q < pairs.size(); ++q)
-    if (q == 0 || pairs[q].p.point != pairs[q - 1].p.point) ++st.colliding_points;
+  // Distinct points among the pairs (still sorted by point here); a delegated object's
+  // are listed instead, for its owner to count once over the ranks that found them.
+  delegated_points.clear();
+  for (std::size_t q = 0; q < pairs.size(); ++q) {
+    if (q > 0 && pairs[q].p.point == pairs[q - 1].p.point) continue;
+    if (delegated[static_cast<std::size_t>(pairs[q].a)])
+      delegated_points.push_back(pairs[q].p.point);
+    else
+      ++st.colliding_points;
+  }
   std::sort(pairs.begin(), pairs.end());
   group_points.resize(pairs.size());
   for (std::size_t q = 0; q < pairs.size(); ++q) group_points[q] = pairs[q].p;
@@ -676,9 +698,7 @@ void CollisionDetector::Impl::depth(const World& w, const double* x_start, std::
     st.edge_contacts = ec.contacts;
     st.edge_unpaired = ec.unpaired;
   }
-  std::sort(out.begin(), out.end(), [](const Collision& a, const Collision& b) {
-    return a.point_gid != b.point_gid ? a.point_gid < b.point_gid : a.triangle_gid < b.triangle_gid;
-  });
+  std::sort(out.begin(), out.end(), record_order);
   st.collisions = static_cast<std::int64_t>(out.size());
 }
 
@@ -686,10 +706,20 @@ void CollisionDetector::Impl::detect(const World& w, const double* x_start, std:
                                      CollisionStats& st) {
   st = CollisionStats{};
   const auto t0 = std::chrono::steady_clock::now();
+  const std::size_t no = topo.objects.size();
+  owned.resize(no);
+  delegated.resize(no);
+  for (std::size_t k = 0; k < no; ++k) {
+    const std::int32_t o = topo.objects[k].object;
+    owned[k] = w.owns_object(o) ? 1 : 0;
+    delegated[k] = std::binary_search(delegated_objects.begin(), delegated_objects.end(), o) ? 1 : 0;
+  }
   scan_positions(w, x_start, st);
   if (settings.self_collisions) {
     culling.update(w.x.data(), topo, bad_vertex.data(), self_active, self_delta);
     if (!settings.self_culling) self_active.assign(topo.objects.size(), 1);
+    // A ghost's self-contact is its owner's: its points never meet its own tets here.
+    for (std::size_t k = 0; k < no; ++k) self_active[k] = owned[k] ? self_active[k] : 0;
     for (std::uint8_t a : self_active) st.self_objects += a;
   } else {
     self_active.assign(topo.objects.size(), 0);
@@ -738,6 +768,15 @@ void CollisionDetector::detect(const World& world, const double* x_start, std::v
                                CollisionStats& stats) {
   impl_->detect(world, x_start, out, stats);
 }
+
+void CollisionDetector::delegate(std::vector<std::int32_t> objects) {
+  std::sort(objects.begin(), objects.end());
+  objects.erase(std::unique(objects.begin(), objects.end()), objects.end());
+  impl_->delegated_objects = std::move(objects);
+  impl_->kept_valid = false;
+}
+
+const std::vector<index_t>& CollisionDetector::delegated_points() const { return impl_->delegated_points; }
 
 void CollisionDetector::record_keys(const World& world, const std::vector<Collision>& records,
                                     std::vector<RecordKey>& keys) {
