@@ -124,7 +124,8 @@ struct RankWork {
   double seconds = 0;
   std::int64_t cross = 0, collisions = 0;
   /// Per scene object: colliding surface vertices of this rank's records (vertex records
-  /// by their point's object) summed over the steps since the last check; empty: none.
+  /// by their point's object, but a split object's by the body its point is in, whose
+  /// owner finds them) summed over the steps since the last check; empty: none.
   std::vector<std::int64_t> contacts;
 };
 

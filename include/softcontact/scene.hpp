@@ -204,6 +204,10 @@ struct Simulation {
   /// evaluated in parts over ranks (split_part_count; docs/architecture.md, "Objects split
   /// for their forces"); the results do not change, only who does the work.
   bool split_objects = true;
+  /// On more than one rank, a split object's points inside a body are found by the body's
+  /// owner (CollisionDetector::delegate; docs/architecture.md, "Contact of a split
+  /// object"); the results do not change, only who does the work. Not with edge contacts.
+  bool split_detection = true;
   /// How the normal magnitudes of the collisions are chosen (docs/contact.md): each
   /// collision in closed form with shares of its vertices (local, the paper's structure),
   /// or all together so that every gap closes (coupled).

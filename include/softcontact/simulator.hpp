@@ -177,6 +177,11 @@ public:
   /// positions from their ghost rows (no positions sent to them).
   int split_helping_parts() const;
   int split_parts_from_ghosts() const;
+  /// Records of split objects' points this rank made for their owners since construction
+  /// (the bodies they entered are this rank's), and those it received for its own points
+  /// (docs/architecture.md, "Contact of a split object").
+  std::int64_t delegated_records_sent() const;
+  std::int64_t delegated_records_received() const;
   /// Collisions of this rank whose triangle lies on an object of another rank, last step.
   std::int64_t cross_rank_collisions() const { return cross_collisions_; }
 
@@ -236,10 +241,15 @@ private:
   double free_fall_speed_ = 0;
   bool free_fall_known_ = false;
   std::vector<int> split_candidates_;          // objects bigger than a share (split_forces.hpp)
+  // Whether the split objects' points are found by the owners of the bodies they enter.
+  bool delegates_detection() const {
+    return nranks_ > 1 && scene_.sim.split_detection && !scene_.sim.edge_contacts && !split_candidates_.empty();
+  }
   SplitHosts split_hosts_;                     // per candidate: the rank of each part (rebalance.hpp)
   bool split_dirty_ = true;                    // the World was replaced since the split plan was made
   int split_count_ = 0, split_ranks_ = 0;      // split objects, the most parts (ranks) of one
   std::int64_t split_doubles_before_ = 0;      // sent by the SplitForces replaced so far
+  std::int64_t delegated_before_[2] = {0, 0};  // delegated records sent, received by the cores replaced so far
   std::size_t dropped_bytes_ = 0;              // mesh bytes dropped and not yet trimmed (trim_dropped)
   std::int64_t split_ghost_generation_ = -1;   // GhostSet::rebuilds() when the split's ghost holders were shared
   std::map<int, std::vector<std::int32_t>> split_parts_;  // object -> its tets' parts (split_part_count of them)

@@ -60,6 +60,11 @@ public:
 
   /// (Re)builds the collision detector for the World's current objects and ghosts.
   void make_detector();
+  /// Objects whose points are queried by the owners of the bodies they enter
+  /// (CollisionDetector::delegate; the objects split over ranks), from the next
+  /// make_detector() on; detection_and_depth() then sends each record of a ghost point to
+  /// the point's owner. Ignored with edge contacts on. Every rank gives the same list.
+  void delegate_detection(std::vector<std::int32_t> objects);
   bool has_detector() const { return detector_ != nullptr; }
   /// Sizes the force buffer after the World's ghost part changed.
   void resize();
@@ -106,9 +111,16 @@ public:
   const ContactStats& contact_stats() const { return contact_stats_; }
   /// Wall seconds spent in neighbour exchanges of detection_and_depth() so far.
   double exchange_seconds() const { return exchange_seconds_; }
+  /// Process CPU seconds spent in them (a wait polls: no work).
+  double exchange_cpu_seconds() const { return exchange_cpu_seconds_; }
+  /// Records of delegated points this rank made for another rank's points so far (and
+  /// received for its own).
+  std::int64_t delegated_sent() const { return delegated_sent_; }
+  std::int64_t delegated_received() const { return delegated_received_; }
 
 private:
   void settle_mutual_records(NeighbourExchange* exchange);
+  void send_delegated_records(NeighbourExchange* exchange);
 
   const Scene& scene_;
   World& world_;
@@ -123,7 +135,9 @@ private:
   std::vector<RecordKey> record_keys_;  // settle_mutual's partners (this rank's and its neighbours')
   CollisionStats collision_stats_;
   ContactStats contact_stats_;
-  double exchange_seconds_ = 0;
+  double exchange_seconds_ = 0, exchange_cpu_seconds_ = 0;
+  std::vector<std::int32_t> delegated_;  // objects whose points the bodies' owners query
+  std::int64_t delegated_sent_ = 0, delegated_received_ = 0;
 };
 
 }  // namespace softcontact

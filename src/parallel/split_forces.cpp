@@ -1,6 +1,8 @@
 // Objects split over ranks for their internal forces (split_forces.hpp).
 #include "softcontact/split_forces.hpp"
 
+#include "softcontact/phase_times.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -96,12 +98,6 @@ std::vector<std::int32_t> interior_parts(const Incidence& inc, const std::vector
 
 double wall_seconds() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
-// The process's CPU seconds, all threads (what the rebalance measures as work).
-double cpu_seconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
 
 
 }  // namespace
@@ -282,11 +278,11 @@ std::size_t SplitForces::peer_index(int r, int object) const {
 void SplitForces::timed_exchange(NeighbourExchange* exchange, const std::vector<std::vector<char>>& send,
                                  std::vector<std::vector<double>>& recv) {
   for (const std::vector<char>& b : send) doubles_sent_ += static_cast<std::int64_t>(b.size() / sizeof(double));
-  const double wall0 = wall_seconds(), cpu0 = cpu_seconds();
+  const double wall0 = wall_seconds(), cpu0 = process_cpu_seconds();
   recv.clear();
   for (const std::vector<char>& r : exchange->exchange_with(peers_, send)) recv.push_back(read_records<double>(r));
   exchange_wall_ += wall_seconds() - wall0;
-  exchange_cpu_ += cpu_seconds() - cpu0;
+  exchange_cpu_ += process_cpu_seconds() - cpu0;
 }
 
 void SplitForces::add(const World& w, std::vector<double>& f, bool damping, NeighbourExchange* exchange) {

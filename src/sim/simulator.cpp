@@ -89,8 +89,16 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
 // initial positions here, and the contact response; the detector follows the ghosts).
 void Simulator::build_components() {
   if (core_ && core_->split()) split_doubles_before_ += core_->split()->doubles_sent();
+  if (core_) {
+    delegated_before_[0] += core_->delegated_sent();
+    delegated_before_[1] += core_->delegated_received();
+  }
   core_.reset();  // the old implicit solver goes before the new one is made
   core_ = std::make_unique<SerialStepper>(scene_, world_, collision_settings_);
+  // A split object's points inside a body are found by that body's owner (docs/
+  // architecture.md, "Contact of a split object").
+  if (delegates_detection())
+    core_->delegate_detection(std::vector<std::int32_t>(split_candidates_.begin(), split_candidates_.end()));
   split_dirty_ = true;
 }
 
@@ -273,6 +281,12 @@ int Simulator::split_parts_from_ghosts() const {
   const SplitForces* s = core_ ? core_->split() : nullptr;
   return s ? s->parts_from_ghosts() : 0;
 }
+std::int64_t Simulator::delegated_records_sent() const {
+  return delegated_before_[0] + (core_ ? core_->delegated_sent() : 0);
+}
+std::int64_t Simulator::delegated_records_received() const {
+  return delegated_before_[1] + (core_ ? core_->delegated_received() : 0);
+}
 std::int64_t Simulator::ghost_rebuilds() const { return ghosts_->rebuilds(); }
 std::int64_t Simulator::ghost_reach_tests() const { return ghosts_->reach_tests(); }
 std::int64_t Simulator::ghost_boxes_received() const { return ghosts_->boxes_received(); }
@@ -342,14 +356,6 @@ void Simulator::step() {
 }
 
 namespace {
-// CPU seconds of the process so far (all its threads): the rebalance's work measure,
-// which a rank sharing a core with others (an oversubscribed node) is not charged for.
-double process_cpu_seconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
-
 // Runs f as one phase: its PETSc log event around it; returns its wall seconds.
 template <class F>
 double timed_phase(PetscLogEvent PhaseEvents::*event, F&& f) {
@@ -400,12 +406,13 @@ void Simulator::refresh_predicted_ghosts() {
   times_.comm += MPI_Wtime() - t;
 }
 
-// The detector times its two parts itself; the mutual records' key exchange is comm.
+// The detector times its two parts itself; its exchanges (the delegated records, the
+// mutual records' keys) are communication, their CPU no work.
 void Simulator::detection_and_depth() {
-  const double exchanged = core_->exchange_seconds();
+  const double exchanged = core_->exchange_seconds(), exchanged_cpu = core_->exchange_cpu_seconds();
   const double cpu = process_cpu_seconds();
   timed_phase(&PhaseEvents::collide, [this] { core_->detection_and_depth(ghosts_->exchange()); });
-  const double used = process_cpu_seconds() - cpu;
+  const double used = process_cpu_seconds() - cpu - (core_->exchange_cpu_seconds() - exchanged_cpu);
   work_seconds_ += used;
   times_.work_cpu += used;
   const CollisionStats& st = core_->collision_stats();
@@ -429,12 +436,18 @@ void Simulator::refresh_final_ghosts() {
   core_->update_anchors();
   cross_collisions_ = 0;
   for (const Collision& c : core_->collisions()) cross_collisions_ += world_.owns_object(c.other_object) ? 0 : 1;
-  // Colliding surface vertices per object for the rebalance's weights (vertex records,
-  // by their point's object; this rank finds the records of its own points).
+  // Colliding surface vertices per object for the rebalance's weights (vertex records, by
+  // the object whose owner found them: their point's, but for a split object's points,
+  // which the owner of the body they are in finds: "Contact of a split object").
   if (nranks_ > 1 && rebalance_.check_every > 0 && rebalance_.measured_weights) {
     window_contacts_.resize(scene_.objects.size(), 0);
-    for (const Collision& c : core_->collisions())
-      if (c.point2 < 0) ++window_contacts_[static_cast<std::size_t>(world_.vertex_object[static_cast<std::size_t>(c.point)])];
+    const bool delegated = delegates_detection();
+    for (const Collision& c : core_->collisions()) {
+      if (c.point2 >= 0) continue;
+      const int k = world_.vertex_object[static_cast<std::size_t>(c.point)];
+      const bool by_body = delegated && std::binary_search(split_candidates_.begin(), split_candidates_.end(), k);
+      ++window_contacts_[static_cast<std::size_t>(by_body ? c.other_object : k)];
+    }
   }
 }
 

@@ -5,11 +5,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <unordered_map>
 
+#include "softcontact/error.hpp"
 #include "softcontact/exchange.hpp"
 #include "softcontact/motion.hpp"
 #include "softcontact/forces.hpp"
+#include "softcontact/phase_times.hpp"
 #include "softcontact/split_forces.hpp"
 
 namespace softcontact {
@@ -117,7 +120,10 @@ void SerialStepper::make_detector() {
     for (std::size_t d = 0; d < 3; ++d) rest[3 * i + d] = m.points[3 * j + d];
   }
   detector_ = std::make_unique<CollisionDetector>(world_, settings_, rest.data(), &gaps_);
+  if (!settings_.edge_contacts) detector_->delegate(delegated_);
 }
+
+void SerialStepper::delegate_detection(std::vector<std::int32_t> objects) { delegated_ = std::move(objects); }
 
 void SerialStepper::resize() { f_.resize(3 * world_.n_local(), 0.0); }
 
@@ -145,7 +151,146 @@ void SerialStepper::unconstrained_motion(double t) { motion_->advance(world_, f_
 
 void SerialStepper::detection_and_depth(NeighbourExchange* exchange) {
   detector_->detect(world_, world_.x_prev.data(), collisions_, collision_stats_);
+  if (!delegated_.empty() && !settings_.edge_contacts) send_delegated_records(exchange);
   if (scene_.sim.mutual_pairs) settle_mutual_records(exchange);
+}
+
+namespace {
+// A record of a delegated point as it travels to the point's owner: global ids in place
+// of local indices (vertex records only: edge contacts are never delegated).
+struct DelegatedRecord {
+  gid_t point_gid;
+  gid_t triangle_gid;
+  gid_t corner_gid[3];
+  double weight[3];
+  double depth[3];
+  std::int32_t object;
+  std::int32_t other_object;
+  std::int32_t fallback;
+  std::int32_t pad;
+};
+
+DelegatedRecord to_wire(const World& w, const Collision& c) {
+  if (c.point2 >= 0) throw RuntimeFailure("delegated detection: an edge record of a ghost point");
+  DelegatedRecord r{};
+  r.point_gid = c.point_gid;
+  r.triangle_gid = c.triangle_gid;
+  for (std::size_t j = 0; j < 3; ++j) {
+    r.corner_gid[j] = w.vertex_gid[static_cast<std::size_t>(c.triangle[j])];
+    r.weight[j] = c.weight[j];
+    r.depth[j] = c.depth[j];
+  }
+  r.object = c.object;
+  r.other_object = c.other_object;
+  r.fallback = c.fallback ? 1 : 0;
+  return r;
+}
+
+// The local index of vertex `g` of `object`, which this rank must hold.
+index_t held_vertex(const World& w, std::int32_t object, gid_t g) {
+  const auto o = static_cast<std::size_t>(object);
+  if (object < 0 || o >= w.layout.size() || w.vertex_offset[o] < 0 || g < w.layout[o].vertex_begin ||
+      g >= w.layout[o].vertex_begin + w.layout[o].vertex_count)
+    throw RuntimeFailure("delegated detection: a record names object " + std::to_string(object) + ", which rank " +
+                         std::to_string(w.rank) + " does not hold");
+  return w.local_vertex(object, g);
+}
+
+Collision from_wire(const World& w, const DelegatedRecord& r) {
+  if (r.object < 0 || static_cast<std::size_t>(r.object) >= w.layout.size() || !w.owns_object(r.object))
+    throw RuntimeFailure("delegated detection: a record for a point not owned here");
+  Collision c;
+  c.point = held_vertex(w, r.object, r.point_gid);
+  c.point_gid = r.point_gid;
+  c.triangle_gid = r.triangle_gid;
+  for (std::size_t j = 0; j < 3; ++j) {
+    c.triangle[j] = held_vertex(w, r.other_object, r.corner_gid[j]);
+    c.weight[j] = r.weight[j];
+    c.depth[j] = r.depth[j];
+  }
+  c.object = r.object;
+  c.other_object = r.other_object;
+  c.fallback = r.fallback != 0;
+  return c;
+}
+}  // namespace
+
+// Delegated points (CollisionDetector::delegate; docs/architecture.md, "Contact of a
+// split object"): the records this rank made for ghost points go to the points' owners,
+// which take them as if they had found them, and the distinct points inside a body are
+// counted once, by the owner, over every rank that found some.
+void SerialStepper::send_delegated_records(NeighbourExchange* exchange) {
+  const std::vector<index_t>& found = detector_->delegated_points();
+  if (!exchange) {  // one rank: every point is its own
+    collision_stats_.colliding_points += static_cast<std::int64_t>(found.size());
+    return;
+  }
+  const std::vector<int>& nb = exchange->neighbors();
+  auto neighbour_of = [&](std::int32_t object) {
+    const int r = world_.layout[static_cast<std::size_t>(object)].rank;
+    const auto it = std::find(nb.begin(), nb.end(), r);
+    if (it == nb.end()) throw RuntimeFailure("delegated detection: the owner of a ghost object is no neighbour");
+    return static_cast<std::size_t>(it - nb.begin());
+  };
+  const auto gid = [&](index_t v) { return world_.vertex_gid[static_cast<std::size_t>(v)]; };
+  std::vector<std::vector<char>> out(nb.size());
+  std::vector<std::vector<gid_t>> points(nb.size());
+  std::vector<gid_t> own;  // this rank's own delegated points inside a body
+  for (index_t v : found) {
+    const std::int32_t k = world_.vertex_object[static_cast<std::size_t>(v)];
+    if (world_.owns_object(k)) own.push_back(gid(v));
+    else points[neighbour_of(k)].push_back(gid(v));
+  }
+  std::size_t kept = 0;
+  for (const Collision& c : collisions_) {
+    if (world_.owns_object(c.object)) {
+      collisions_[kept++] = c;
+      continue;
+    }
+    const DelegatedRecord r = to_wire(world_, c);
+    append_records(out[neighbour_of(c.object)], &r, 1);
+    ++delegated_sent_;
+  }
+  collisions_.resize(kept);
+  // Each message: the number of points, the points, then the records.
+  for (std::size_t q = 0; q < nb.size(); ++q) {
+    std::vector<char> msg;
+    const std::int64_t n = static_cast<std::int64_t>(points[q].size());
+    append_records(msg, &n, 1);
+    append_records(msg, points[q].data(), points[q].size());
+    msg.insert(msg.end(), out[q].begin(), out[q].end());
+    out[q] = std::move(msg);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  const double cpu0 = process_cpu_seconds();
+  const std::vector<std::vector<char>> recv = exchange->exchange_bytes(out);
+  exchange_cpu_seconds_ += process_cpu_seconds() - cpu0;
+  exchange_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const std::size_t before = collisions_.size();
+  for (const std::vector<char>& m : recv) {
+    std::int64_t n = 0;
+    if (m.size() < sizeof n) throw RuntimeFailure("delegated detection: a message shorter than its count");
+    std::memcpy(&n, m.data(), sizeof n);
+    if (n < 0 || static_cast<std::uint64_t>(n) > (m.size() - sizeof n) / sizeof(gid_t))
+      throw RuntimeFailure("delegated detection: a message shorter than its points");
+    const std::size_t head = sizeof n + static_cast<std::size_t>(n) * sizeof(gid_t);
+    if ((m.size() - head) % sizeof(DelegatedRecord) != 0) throw RuntimeFailure("delegated detection: a torn record");
+    const std::size_t at = own.size();
+    own.resize(at + static_cast<std::size_t>(n));
+    std::memcpy(own.data() + at, m.data() + sizeof n, static_cast<std::size_t>(n) * sizeof(gid_t));
+    const std::size_t nr = (m.size() - head) / sizeof(DelegatedRecord);
+    for (std::size_t i = 0; i < nr; ++i) {
+      DelegatedRecord r;
+      std::memcpy(&r, m.data() + head + i * sizeof r, sizeof r);
+      collisions_.push_back(from_wire(world_, r));
+      ++delegated_received_;
+    }
+  }
+  if (collisions_.size() != before) std::sort(collisions_.begin(), collisions_.end(), record_order);
+  std::sort(own.begin(), own.end());
+  collision_stats_.colliding_points +=
+      static_cast<std::int64_t>(std::unique(own.begin(), own.end()) - own.begin());
+  collision_stats_.collisions = static_cast<std::int64_t>(collisions_.size());
 }
 
 void SerialStepper::contact_response(NeighbourExchange* exchange) {
@@ -164,6 +309,7 @@ void SerialStepper::settle_mutual_records(NeighbourExchange* exchange) {
   CollisionDetector::record_keys(world_, collisions_, record_keys_);
   if (exchange) {
     const auto t0 = std::chrono::steady_clock::now();
+    const double cpu0 = process_cpu_seconds();
     std::vector<char> buf;
     for (const RecordKey& k : record_keys_)  // the heavy vertex is B's: a ghost when B is
       if (!world_.owns_object(k.other_object)) append_records(buf, &k, 1);
@@ -174,6 +320,7 @@ void SerialStepper::settle_mutual_records(NeighbourExchange* exchange) {
       record_keys_.insert(record_keys_.end(), in.begin(), in.end());
     }
     exchange_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    exchange_cpu_seconds_ += process_cpu_seconds() - cpu0;
   }
   collision_stats_.mutual_settled = detector_->settle_mutual(world_, collisions_, record_keys_);
 }

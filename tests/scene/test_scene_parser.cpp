@@ -438,6 +438,11 @@ TEST(SceneParser, SplitObjectsDefaultsOnAndIsChecked) {
   EXPECT_FALSE(split_candidate(on, 0, 1));
   EXPECT_FALSE(split_candidate(off, 0, 2));
   expect_error(scene_with(kBox, "  dt: auto\n  steps: 10\n  split_objects: sometimes\n"), {"scene.yaml:4:", "'split_objects'"});
+  // Their points' detection by the bodies' owners: the same.
+  EXPECT_TRUE(on.sim.split_detection);
+  EXPECT_FALSE(load_scene_from_string(scene_with(kBox, "  dt: auto\n  steps: 10\n  split_detection: false\n"), "scene.yaml")
+                   .sim.split_detection);
+  expect_error(scene_with(kBox, "  dt: auto\n  steps: 10\n  split_detection: 2\n"), {"scene.yaml:4:", "'split_detection'"});
 }
 
 TEST(SceneParser, ContactClosureIsLocalOrCoupled) {

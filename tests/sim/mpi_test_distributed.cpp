@@ -48,9 +48,11 @@ const Scene& pile() {
 constexpr int kSteps = 120, kEvery = 10;
 
 // Positions and contact forces of every vertex in global order (on rank 0; empty
-// elsewhere), gathered from the owners.
+// elsewhere), gathered from the owners, and the step's colliding points summed over the
+// ranks (the diagnostics' `contacts`: each point counted once, by its owner).
 struct Snapshot {
   std::vector<double> x, f;
+  std::int64_t points = 0;
 };
 
 Snapshot gather(MPI_Comm comm, Simulator& sim) {
@@ -74,6 +76,8 @@ Snapshot gather(MPI_Comm comm, Simulator& sim) {
   std::vector<double> all(static_cast<std::size_t>(total));
   MPI_Gatherv(rows.data(), mine, MPI_DOUBLE, all.data(), counts.data(), disp.data(), MPI_DOUBLE, 0, comm);
   Snapshot s;
+  const std::int64_t points = sim.collision_stats().colliding_points;
+  MPI_Reduce(&points, &s.points, 1, MPI_INT64_T, MPI_SUM, 0, comm);
   if (comm_rank(comm) != 0) return s;
   const auto nv = static_cast<std::size_t>(w.global_vertices);
   s.x.assign(3 * nv, 0.0);
@@ -150,6 +154,7 @@ void expect_identical(int threads, F&& between, std::int64_t* cross_out = nullpt
           << " threads)";
       EXPECT_EQ(std::memcmp(got.f.data(), ref[k].f.data(), got.f.size() * sizeof(double)), 0)
           << "contact forces differ from one rank at step " << s;
+      EXPECT_EQ(got.points, ref[k].points) << "colliding points differ from one rank's at step " << s;
     }
     ++k;
   }
@@ -410,6 +415,54 @@ TEST(Distributed, SoftFloorSplitOverRanksIsBitwiseOneRanks) {
     EXPECT_EQ(split_steps, n > 1 ? kSteps : 0) << "the floor was not split at every step";
     EXPECT_EQ(migrations, n > 1 ? 1 : 0);
   }
+}
+
+namespace {
+// soft_floor with its balls moved half a floor cell, so that they land on the floor's
+// vertices and press some of them into the balls (the test scene's balls land between
+// them, and no floor point ever enters a ball).
+const Scene& soft_floor_on_vertices() {
+  static const Scene s = soft_floor_edited({{"translate: [-0.3, -0.15, 0.09]", "translate: [-0.35, -0.2, 0.09]", 1},
+                                            {"translate: [-0.3, 0.15, 0.09]", "translate: [-0.35, 0.2, 0.09]", 1}});
+  return s;
+}
+}  // namespace
+
+// A split floor's points inside a ball are found by the ball's owner, which holds the
+// floor as a ghost, and sent to the floor's owner (CollisionDetector::delegate;
+// docs/architecture.md, "Contact of a split object"). Positions, contact forces and the
+// colliding points summed over the ranks (each counted once, by the floor's owner) are one
+// rank's at every snapshot, also across a migration of every object to the next rank;
+// every record sent arrives; records of floor points exist (else the test proves
+// nothing), and on more than one rank some of them came from another rank.
+TEST(Distributed, SplitFloorsPointsInsideBallsAreFoundByTheBallsOwners) {
+  const int n = comm_size(MPI_COMM_WORLD);
+  const Scene& scene = soft_floor_on_vertices();
+  std::int64_t counts[3] = {0, 0, 0};  // floor records over the run; delegated records sent, received
+  int migrations = 0;
+  expect_identical(
+      1,
+      [&](Simulator& sim, int s) {
+        for (const Collision& c : sim.collisions()) counts[0] += c.object == 0 ? 1 : 0;
+        counts[1] = sim.delegated_records_sent();
+        counts[2] = sim.delegated_records_received();
+        if (s == 55 && n > 1) {
+          std::vector<int> next = sim.partition();
+          for (int& r : next) r = (r + 1) % n;
+          sim.migrate(next);
+          ++migrations;
+        }
+      },
+      nullptr, scene);
+  MPI_Allreduce(MPI_IN_PLACE, counts, 3, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_GT(counts[0], 0) << "no floor point entered a ball: the test proves nothing";
+  EXPECT_EQ(counts[1], counts[2]) << "delegated records sent and received over the ranks";
+  if (n > 1) EXPECT_GT(counts[1], 0) << "no floor record was made by a ball's owner";
+  EXPECT_LE(counts[1], counts[0]);
+  EXPECT_EQ(migrations, n > 1 ? 1 : 0);
+  if (comm_rank(MPI_COMM_WORLD) == 0)
+    std::cout << "[measured] " << n << " ranks: " << counts[0] << " floor records over " << kSteps << " steps, "
+              << counts[1] << " of them made by the balls' owners\n";
 }
 
 // A floor of 35 % of the tets (soft_floor_twelve) on 4 ranks is cut into 3 parts, not 4:
