@@ -104,6 +104,17 @@ const Scene& soft_floor_far() {
   return s;
 }
 
+// At step 55 on more than one rank, every object moves to the next rank (the split
+// objects change owner, and their parts are evaluated by other ranks); returns 1 then.
+int migrate_at_step_55(Simulator& sim, int step) {
+  const int n = comm_size(MPI_COMM_WORLD);
+  if (step != 55 || n == 1) return 0;
+  std::vector<int> next = sim.partition();
+  for (int& r : next) r = (r + 1) % n;
+  sim.migrate(next);
+  return 1;
+}
+
 // Over all ranks: the parts evaluated off their object's owner, and those of them that
 // read the positions from ghost rows (collective).
 std::pair<int, int> helping_parts(const Simulator& sim) {
@@ -404,12 +415,7 @@ TEST(Distributed, SoftFloorSplitOverRanksIsBitwiseOneRanks) {
           const auto [helping, from_ghosts] = helping_parts(sim);
           EXPECT_EQ(helping, n - 1) << "step " << s;
           EXPECT_EQ(from_ghosts, n - 1) << "step " << s;
-          if (s == 55 && n > 1) {
-            std::vector<int> next = sim.partition();
-            for (int& r : next) r = (r + 1) % n;
-            sim.migrate(next);
-            ++migrations;
-          }
+          migrations += migrate_at_step_55(sim, s);
         },
         nullptr, soft_floor());
     EXPECT_EQ(split_steps, n > 1 ? kSteps : 0) << "the floor was not split at every step";
@@ -446,12 +452,7 @@ TEST(Distributed, SplitFloorsPointsInsideBallsAreFoundByTheBallsOwners) {
         for (const Collision& c : sim.collisions()) counts[0] += c.object == 0 ? 1 : 0;
         counts[1] = sim.delegated_records_sent();
         counts[2] = sim.delegated_records_received();
-        if (s == 55 && n > 1) {
-          std::vector<int> next = sim.partition();
-          for (int& r : next) r = (r + 1) % n;
-          sim.migrate(next);
-          ++migrations;
-        }
+        migrations += migrate_at_step_55(sim, s);
       },
       nullptr, scene);
   MPI_Allreduce(MPI_IN_PLACE, counts, 3, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
@@ -512,12 +513,7 @@ TEST(Distributed, FloorInFewerPartsThanRanksIsBitwiseOneRanks) {
                       << imbalance << "\n";
           ++checked;
         }
-        if (s == 55 && n > 1) {
-          std::vector<int> next = sim.partition();
-          for (int& r : next) r = (r + 1) % n;
-          sim.migrate(next);
-          ++migrations;
-        }
+        migrations += migrate_at_step_55(sim, s);
       },
       nullptr, scene);
   EXPECT_EQ(checked, kSteps / 20);
