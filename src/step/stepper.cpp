@@ -277,7 +277,7 @@ void SerialStepper::send_delegated_records(NeighbourExchange* exchange) {
     if ((m.size() - head) % sizeof(DelegatedRecord) != 0) throw RuntimeFailure("delegated detection: a torn record");
     const std::size_t at = own.size();
     own.resize(at + static_cast<std::size_t>(n));
-    std::memcpy(own.data() + at, m.data() + sizeof n, static_cast<std::size_t>(n) * sizeof(gid_t));
+    if (n > 0) std::memcpy(own.data() + at, m.data() + sizeof n, static_cast<std::size_t>(n) * sizeof(gid_t));
     const std::size_t nr = (m.size() - head) / sizeof(DelegatedRecord);
     for (std::size_t i = 0; i < nr; ++i) {
       DelegatedRecord r;
