@@ -138,6 +138,8 @@ private:
   double exchange_seconds_ = 0, exchange_cpu_seconds_ = 0;
   std::vector<std::int32_t> delegated_;  // objects whose points the bodies' owners query
   std::int64_t delegated_sent_ = 0, delegated_received_ = 0;
+  std::vector<std::vector<gid_t>> delegated_points_;  // per neighbour: the delegated points found here
+  std::vector<std::vector<char>> delegated_out_;     // per neighbour: the message of send_delegated_records
 };
 
 }  // namespace softcontact

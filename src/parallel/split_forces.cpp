@@ -1,18 +1,16 @@
 // Objects split over ranks for their internal forces (split_forces.hpp).
 #include "softcontact/split_forces.hpp"
 
-#include "softcontact/phase_times.hpp"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <ctime>
 #include <limits>
 #include <string>
 
 #include "softcontact/error.hpp"
 #include "softcontact/exchange.hpp"
 #include "softcontact/forces.hpp"
+#include "softcontact/phase_times.hpp"
 
 namespace softcontact {
 
@@ -97,8 +95,6 @@ std::vector<std::int32_t> interior_parts(const Incidence& inc, const std::vector
 }
 
 double wall_seconds() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
-
-
 
 }  // namespace
 

@@ -233,13 +233,23 @@ void SerialStepper::send_delegated_records(NeighbourExchange* exchange) {
     return static_cast<std::size_t>(it - nb.begin());
   };
   const auto gid = [&](index_t v) { return world_.vertex_gid[static_cast<std::size_t>(v)]; };
-  std::vector<std::vector<char>> out(nb.size());
-  std::vector<std::vector<gid_t>> points(nb.size());
+  // Each message: the number of points, the points, then the records. The buffers keep
+  // their capacity from step to step.
+  delegated_points_.resize(nb.size());
+  delegated_out_.resize(nb.size());
+  for (std::vector<gid_t>& p : delegated_points_) p.clear();
   std::vector<gid_t> own;  // this rank's own delegated points inside a body
   for (index_t v : found) {
     const std::int32_t k = world_.vertex_object[static_cast<std::size_t>(v)];
     if (world_.owns_object(k)) own.push_back(gid(v));
-    else points[neighbour_of(k)].push_back(gid(v));
+    else delegated_points_[neighbour_of(k)].push_back(gid(v));
+  }
+  for (std::size_t q = 0; q < nb.size(); ++q) {
+    std::vector<char>& msg = delegated_out_[q];
+    msg.clear();
+    const std::int64_t n = static_cast<std::int64_t>(delegated_points_[q].size());
+    append_records(msg, &n, 1);
+    append_records(msg, delegated_points_[q].data(), delegated_points_[q].size());
   }
   std::size_t kept = 0;
   for (const Collision& c : collisions_) {
@@ -248,22 +258,13 @@ void SerialStepper::send_delegated_records(NeighbourExchange* exchange) {
       continue;
     }
     const DelegatedRecord r = to_wire(world_, c);
-    append_records(out[neighbour_of(c.object)], &r, 1);
+    append_records(delegated_out_[neighbour_of(c.object)], &r, 1);
     ++delegated_sent_;
   }
   collisions_.resize(kept);
-  // Each message: the number of points, the points, then the records.
-  for (std::size_t q = 0; q < nb.size(); ++q) {
-    std::vector<char> msg;
-    const std::int64_t n = static_cast<std::int64_t>(points[q].size());
-    append_records(msg, &n, 1);
-    append_records(msg, points[q].data(), points[q].size());
-    msg.insert(msg.end(), out[q].begin(), out[q].end());
-    out[q] = std::move(msg);
-  }
   const auto t0 = std::chrono::steady_clock::now();
   const double cpu0 = process_cpu_seconds();
-  const std::vector<std::vector<char>> recv = exchange->exchange_bytes(out);
+  const std::vector<std::vector<char>> recv = exchange->exchange_bytes(delegated_out_);
   exchange_cpu_seconds_ += process_cpu_seconds() - cpu0;
   exchange_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const std::size_t before = collisions_.size();
