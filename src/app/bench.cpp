@@ -375,7 +375,7 @@ std::string bench_csv_header() {
       "collisions_max,total_ms_median,total_ms_mean";
   for (const PhaseColumn& p : kPhases) h += std::string(",") + p.column + "_ms_median," + p.column + "_ms_mean";
   h += ",steps_per_second,setup_s,rss_max_mib,rss_mean_mib,omp_wait_policy,halo_bytes_max,halo_bytes_mean,"
-       "compute_imbalance,cross_rank_fraction,ghost_rebuilds,cpu_imbalance";
+       "compute_imbalance,cross_rank_fraction,ghost_rebuilds,cpu_imbalance,read_s";
   return h;
 }
 
@@ -392,7 +392,7 @@ std::string bench_csv_row(const BenchResult& r) {
   s << ',' << num(r.steps_per_second()) << ',' << num(r.setup_seconds) << ',' << num(r.rss_max_mib) << ','
     << num(r.rss_mean_mib) << ',' << csv_field(r.omp_wait_policy) << ',' << num(r.halo_bytes_max) << ','
     << num(r.halo_bytes_mean) << ',' << num(r.compute_imbalance) << ',' << num(r.cross_rank_fraction) << ','
-    << r.ghost_rebuilds << ',' << num(r.cpu_imbalance);
+    << r.ghost_rebuilds << ',' << num(r.cpu_imbalance) << ',' << num(r.read_seconds);
   return s.str();
 }
 
