@@ -182,6 +182,12 @@ public:
   /// (docs/architecture.md, "Contact of a split object").
   std::int64_t delegated_records_sent() const;
   std::int64_t delegated_records_received() const;
+  /// The rebalance's contact counts since its last check, per scene object (empty on one
+  /// rank, or before the first record): this rank's vertex records, each counted for the
+  /// object whose owner made it (its point's object; a split object's point found by the
+  /// owner of the body it entered counts for that body). Summed over the ranks they weigh
+  /// the objects for the next partition (RankWork::contacts, measured_weights).
+  const std::vector<std::int64_t>& measured_contacts() const { return window_contacts_; }
   /// Collisions of this rank whose triangle lies on an object of another rank, last step.
   std::int64_t cross_rank_collisions() const { return cross_collisions_; }
 

@@ -466,6 +466,56 @@ TEST(Distributed, SplitFloorsPointsInsideBallsAreFoundByTheBallsOwners) {
               << counts[1] << " of them made by the balls' owners\n";
 }
 
+// The rebalance's contact counts (Simulator::measured_contacts, RankWork::contacts) weigh
+// an object by the records its owner makes: a vertex record counts for its point's object,
+// but a split floor's point found by the owner of the ball it entered counts for that ball
+// (split_detection, docs/architecture.md, "Contact of a split object"), and for the floor
+// when the floor's owner finds it (split_detection: false). The reference is worked out
+// from one rank's records of the same 120 steps with that rule; summed over the ranks the
+// counts must equal it object by object (every record counted once, on one rank: the
+// records a ball's owner sends the floor's owner are counted there, not twice).
+TEST(Distributed, RebalanceCountsASplitFloorsRecordForTheObjectWhoseOwnerFoundIt) {
+  const int n = comm_size(MPI_COMM_WORLD);
+  std::int64_t floor_records[2] = {0, 0};  // the floor's count in the reference, delegated and not
+  for (const bool delegate : {true, false}) {
+    SCOPED_TRACE(delegate ? "split_detection: true" : "split_detection: false");
+    Scene scene = soft_floor_on_vertices();
+    scene.sim.split_detection = delegate;
+    scene.sim.rebalance_every = 10 * kSteps;  // no check in the run, which would restart the counts
+    const std::size_t no = scene.objects.size();
+    std::vector<std::int64_t> want(no, 0);
+    if (comm_rank(MPI_COMM_WORLD) == 0) {
+      omp_set_num_threads(1);
+      Simulator one(MPI_COMM_SELF, scene);
+      for (int s = 1; s <= kSteps; ++s) {
+        one.step();
+        for (const Collision& c : one.collisions()) {
+          if (c.point2 >= 0) continue;
+          const int k = one.world().vertex_object[static_cast<std::size_t>(c.point)];
+          ++want[static_cast<std::size_t>(delegate && k == 0 ? c.other_object : k)];
+        }
+      }
+      EXPECT_TRUE(one.measured_contacts().empty()) << "one rank keeps no counts: it never rebalances";
+      floor_records[delegate ? 0 : 1] = want[0];
+    }
+    MPI_Barrier(MPI_COMM_WORLD);
+    Simulator sim(MPI_COMM_WORLD, scene);
+    for (int s = 1; s <= kSteps; ++s) sim.step();
+    if (n == 1) continue;
+    std::vector<std::int64_t> got = sim.measured_contacts();
+    got.resize(no, 0);
+    MPI_Reduce(comm_rank(MPI_COMM_WORLD) == 0 ? MPI_IN_PLACE : got.data(), got.data(), static_cast<int>(no), MPI_INT64_T,
+               MPI_SUM, 0, MPI_COMM_WORLD);
+    if (comm_rank(MPI_COMM_WORLD) == 0)
+      for (std::size_t k = 0; k < no; ++k) EXPECT_EQ(got[k], want[k]) << "object " << k << " (" << scene.objects[k].name << ")";
+  }
+  if (comm_rank(MPI_COMM_WORLD) == 0) {
+    EXPECT_EQ(floor_records[0], 0) << "with the detection delegated, no record counts for the floor";
+    EXPECT_GT(floor_records[1], 0) << "no floor point entered a ball: the test proves nothing";
+    std::cout << "[measured] " << floor_records[1] << " floor records over " << kSteps << " steps\n";
+  }
+}
+
 // A floor of 35 % of the tets (soft_floor_twelve) on 4 ranks is cut into 3 parts, not 4:
 // each of about half an even share, one on its owner, the others on the ranks the
 // partition kept room on (partition_at's hosts; after a migration by hand, split_hosts).
