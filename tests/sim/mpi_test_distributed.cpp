@@ -466,6 +466,35 @@ TEST(Distributed, SplitFloorsPointsInsideBallsAreFoundByTheBallsOwners) {
               << counts[1] << " of them made by the balls' owners\n";
 }
 
+// The split floor's delegated records under the coupled closure (every rank's rows
+// gathered and solved together) with mutual pairs on (each rank sends its neighbours the
+// keys of its records whose heavy vertex is a ghost, after the delegated records have
+// reached the floor's owner). Positions, contact forces and colliding points one rank's
+// at every snapshot, across a migration of every object. No mutual pair of this scene
+// contradicts (none is settled: the keys travel, the settle changes nothing), and the
+// floor never touches itself, so self-contact of a split object is not tested here.
+TEST(Distributed, SplitFloorsDelegatedRecordsUnderTheCoupledClosureAreBitwiseOneRanks) {
+  const int n = comm_size(MPI_COMM_WORLD);
+  static const Scene scene = [] {
+    Scene s = soft_floor_on_vertices();
+    s.sim.mutual_pairs = true;
+    s.sim.contact_closure = ContactClosure::coupled;
+    return s;
+  }();
+  std::int64_t delegated = 0;
+  int migrations = 0;
+  expect_identical(
+      1,
+      [&](Simulator& sim, int s) {
+        delegated = sim.delegated_records_sent();
+        migrations += migrate_at_step_55(sim, s);
+      },
+      nullptr, scene);
+  MPI_Allreduce(MPI_IN_PLACE, &delegated, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+  if (n > 1) EXPECT_GT(delegated, 0) << "no floor record was made by a ball's owner";
+  EXPECT_EQ(migrations, n > 1 ? 1 : 0);
+}
+
 // The rebalance's contact counts (Simulator::measured_contacts, RankWork::contacts) weigh
 // an object by the records its owner makes: a vertex record counts for its point's object,
 // but a split floor's point found by the owner of the ball it entered counts for that ball
