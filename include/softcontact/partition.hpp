@@ -135,10 +135,23 @@ PartitionInput group_input(const PartitionInput& in, const std::vector<std::int3
 /// planes, which METIS does not choose. This serial form computes every group.
 std::vector<int> partition_objects_grouped(const PartitionInput& in, int nparts, int parts_per_group = kPartsPerGroup);
 
-/// The tets of one mesh in `nparts` parts/// The tets of one mesh in `nparts` parts (objects split over ranks, split_forces.hpp):
-/// METIS_PartMeshDual on the tets' dual graph (tets sharing a face), fixed seed, so every
-/// rank computes the same parts. Part per tet, in [0, nparts); a part may be empty.
-std::vector<std::int32_t> split_tet_parts(const TetMesh& mesh, int nparts);
+/// Up to this many tets a split object's parts come from METIS, above it from a
+/// coordinate bisection (split_tet_parts): METIS takes about 1.2 microseconds and 160 to
+/// 180 bytes per tet on every rank taking part (2.5 s and 352 MiB at 2.07 million tets,
+/// 11.4 s and 1.4 GiB at 9.6 million), the bisection a ninth of the time and 36 bytes per
+/// tet, for parts whose cuts cross cells (inputs/soft_floor.yaml on 8 ranks: 16 % more
+/// bytes in the parts' messages). docs/benchmarks.md, "a split object's parts by
+/// coordinate bisection".
+inline constexpr std::size_t kSplitMetisMaxTets = std::size_t{1} << 21;
+
+/// The tets of one mesh in `nparts` parts (objects split over ranks, split_forces.hpp),
+/// the same on every rank. Up to `metis_max_tets` tets: METIS_PartMeshDual on the tets'
+/// dual graph (tets sharing a face), fixed seed (part sizes within a few % of each other,
+/// a small cut). Above: recursive coordinate bisection of the tets' centroids, each range
+/// cut across its widest extent into counts proportional to its parts (rounded; ties
+/// broken by tet index), O(tets log nparts) time and 36 bytes per tet. Part per tet, in
+/// [0, nparts); a part may be empty.
+std::vector<std::int32_t> split_tet_parts(const TetMesh& mesh, int nparts, std::size_t metis_max_tets = kSplitMetisMaxTets);
 
 /// Imbalance (max part weight / mean part weight, with the weights as given; 1 when the
 /// total is 0) and edge cut of `part` on the graph of object_graph_edges(in).

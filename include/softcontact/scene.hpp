@@ -180,6 +180,11 @@ struct SceneObject {
 
 enum class ContactClosure { local, coupled };
 
+/// How a split object's tets are cut into parts (split_tet_parts in partition.hpp):
+/// METIS up to kSplitMetisMaxTets and a coordinate bisection above (automatic), or
+/// always the one named.
+enum class SplitParts { automatic, metis, bisection };
+
 /// Node weights of a repartition: the measured cost (seconds and contacts), or tets.
 enum class RebalanceWeights { measured, tets };
 
@@ -208,6 +213,9 @@ struct Simulation {
   /// owner (CollisionDetector::delegate; docs/architecture.md, "Contact of a split
   /// object"); the results do not change, only who does the work. Not with edge contacts.
   bool split_detection = true;
+  /// How a split object's tets are cut into parts; the results do not change, only the
+  /// set-up's time and memory and the parts' messages (docs/architecture.md).
+  SplitParts split_parts = SplitParts::automatic;
   /// How the normal magnitudes of the collisions are chosen (docs/contact.md): each
   /// collision in closed form with shares of its vertices (local, the paper's structure),
   /// or all together so that every gap closes (coupled).

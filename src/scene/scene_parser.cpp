@@ -222,7 +222,7 @@ private:
 
 void parse_simulation(const Reader& r, const YAML::Node& n, Simulation& sim) {
   r.check_keys(n, {"dt", "dt_safety", "dt_bound", "end_time", "steps", "gravity", "integrator", "output", "self_collisions",
-                   "edge_contacts", "mutual_pairs", "split_objects", "split_detection", "contact_closure", "separation_speed", "checkpoint", "limits",
+                   "edge_contacts", "mutual_pairs", "split_objects", "split_detection", "split_parts", "contact_closure", "separation_speed", "checkpoint", "limits",
                    "rebalance"},
                "'simulation'");
   if (const auto dt = n["dt"]) {
@@ -256,6 +256,10 @@ void parse_simulation(const Reader& r, const YAML::Node& n, Simulation& sim) {
   if (const auto mp = n["mutual_pairs"]) sim.mutual_pairs = r.boolean(mp, "'mutual_pairs'");
   if (const auto so = n["split_objects"]) sim.split_objects = r.boolean(so, "'split_objects'");
   if (const auto sd = n["split_detection"]) sim.split_detection = r.boolean(sd, "'split_detection'");
+  if (const auto sp = n["split_parts"])
+    sim.split_parts = r.choice<SplitParts>(
+        sp, "split_parts",
+        {{"auto", SplitParts::automatic}, {"metis", SplitParts::metis}, {"bisection", SplitParts::bisection}});
   if (const auto cc = n["contact_closure"])
     sim.contact_closure = r.choice<ContactClosure>(cc, "contact_closure",
                                                    {{"local", ContactClosure::local}, {"coupled", ContactClosure::coupled}});

@@ -24,6 +24,7 @@
 #include "softcontact/implicit_euler.hpp"
 #include "softcontact/mesh_io.hpp"
 #include "softcontact/motion.hpp"
+#include "softcontact/partition.hpp"
 #include "softcontact/split_forces.hpp"
 #include "softcontact/stepper.hpp"
 #include "softcontact/integrator.hpp"
@@ -139,7 +140,13 @@ void Simulator::prepare_split() {
     std::vector<std::int32_t> tet_part;
     if (takes_part(i)) {
       std::vector<std::int32_t>& parts = split_parts_[k];
-      if (parts.empty()) parts = split_tet_parts(scene_.view_mesh(static_cast<std::size_t>(k)).get(), static_cast<int>(h.size()));
+      if (parts.empty()) {
+        const SplitParts how = scene_.sim.split_parts;
+        const std::size_t metis_max = how == SplitParts::metis       ? std::numeric_limits<std::size_t>::max()
+                                      : how == SplitParts::bisection ? 0
+                                                                     : kSplitMetisMaxTets;
+        parts = split_tet_parts(scene_.view_mesh(static_cast<std::size_t>(k)).get(), static_cast<int>(h.size()), metis_max);
+      }
       tet_part.reserve(parts.size());
       for (std::int32_t q : parts) tet_part.push_back(h[static_cast<std::size_t>(q)]);
     }

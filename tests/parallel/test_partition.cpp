@@ -297,12 +297,14 @@ TEST(Partition, RejectsMalformedInput) {
   EXPECT_THROW(partition_quality(in, std::vector<int>(10, 2), 2), RuntimeFailure);
 }
 
-// The tets of one object in parts (objects split for their forces, split_forces.hpp):
-// every tet in a part in range, every part used and within 5% of an even share (METIS'
-// default imbalance tolerance is 3%), the same parts on every call (every rank computes
-// them itself), and a cut that is a small fraction of the faces: the vertices on a cut
-// are the ones whose corner forces travel one by one. Reference: the interior faces
-// counted by brute force (sorted corner triples shared by two tets).
+// The tets of one object in parts (objects split for their forces, split_forces.hpp), by
+// METIS (up to kSplitMetisMaxTets) and by the coordinate bisection (above; here with the
+// limit at 0): every tet in a part in range, every part used and within 5% of an even
+// share (METIS' default imbalance tolerance is 3%; the bisection's rounding leaves a
+// part within 2 tets of it), the same parts on every call (every rank computes them
+// itself), and a cut that is a small fraction of the faces: the vertices on a cut are the
+// ones whose corner forces travel one by one. Reference: the interior faces counted by
+// brute force (sorted corner triples shared by two tets).
 TEST(SplitTetParts, BalancedDeterministicWithASmallCut) {
   const TetMesh m = make_box(1, 1, 0.5, 12, 12, 6);
   const std::size_t nt = m.num_tets();
@@ -322,10 +324,12 @@ TEST(SplitTetParts, BalancedDeterministicWithASmallCut) {
   std::vector<std::size_t> order(faces.size());
   std::iota(order.begin(), order.end(), std::size_t{0});
   std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return faces[a] < faces[b]; });
+  for (const std::size_t metis_max : {kSplitMetisMaxTets, std::size_t{0}})
   for (const int nparts : {1, 2, 3, 4, 7}) {
-    const std::vector<std::int32_t> part = split_tet_parts(m, nparts);
+    SCOPED_TRACE(metis_max > 0 ? "METIS" : "coordinate bisection");
+    const std::vector<std::int32_t> part = split_tet_parts(m, nparts, metis_max);
     ASSERT_EQ(part.size(), nt);
-    EXPECT_EQ(split_tet_parts(m, nparts), part) << "not deterministic";
+    EXPECT_EQ(split_tet_parts(m, nparts, metis_max), part) << "not deterministic";
     std::vector<std::size_t> size(static_cast<std::size_t>(nparts), 0);
     for (std::int32_t p : part) {
       ASSERT_GE(p, 0);
@@ -336,6 +340,7 @@ TEST(SplitTetParts, BalancedDeterministicWithASmallCut) {
     for (std::size_t s : size) {
       EXPECT_GT(s, 0u) << nparts << " parts";
       EXPECT_LE(static_cast<double>(s), 1.05 * share) << nparts << " parts";
+      if (metis_max == 0) EXPECT_LE(std::abs(static_cast<double>(s) - share), 2.0) << nparts << " parts";
     }
     std::size_t interior = 0, cut = 0;
     for (std::size_t k = 0; k + 1 < order.size(); ++k)
@@ -346,7 +351,8 @@ TEST(SplitTetParts, BalancedDeterministicWithASmallCut) {
     ASSERT_GT(interior, nt);
     if (nparts == 1) EXPECT_EQ(cut, 0u);
     else EXPECT_LT(static_cast<double>(cut), 0.1 * static_cast<double>(interior)) << nparts << " parts";
-    std::printf("[measured] %d parts: cut %zu of %zu interior faces\n", nparts, cut, interior);
+    std::printf("[measured] %s, %d parts: cut %zu of %zu interior faces\n", metis_max > 0 ? "METIS" : "bisection", nparts,
+                cut, interior);
   }
 }
 

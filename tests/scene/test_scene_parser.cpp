@@ -446,6 +446,15 @@ TEST(SceneParser, SplitObjectsDefaultsOnAndIsChecked) {
 }
 
 TEST(SceneParser, ContactClosureIsLocalOrCoupled) {
+  EXPECT_EQ(load_scene_from_string(scene_with(kBox), "scene.yaml").sim.split_parts, SplitParts::automatic);
+  EXPECT_EQ(load_scene_from_string(scene_with(kBox, "  dt: auto\n  steps: 10\n  split_parts: bisection\n"), "scene.yaml")
+                .sim.split_parts,
+            SplitParts::bisection);
+  EXPECT_EQ(load_scene_from_string(scene_with(kBox, "  dt: auto\n  steps: 10\n  split_parts: metis\n"), "scene.yaml")
+                .sim.split_parts,
+            SplitParts::metis);
+  expect_error(scene_with(kBox, "  dt: auto\n  steps: 10\n  split_parts: rcb\n"),
+               {"scene.yaml:4:", "split_parts", "auto", "metis", "bisection"});
   EXPECT_EQ(load_scene_from_string(scene_with(kBox), "scene.yaml").sim.contact_closure, ContactClosure::local);
   const Scene c = load_scene_from_string(scene_with(kBox, "  dt: auto\n  steps: 10\n  contact_closure: coupled\n"), "scene.yaml");
   EXPECT_EQ(c.sim.contact_closure, ContactClosure::coupled);

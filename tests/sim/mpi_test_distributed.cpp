@@ -403,11 +403,18 @@ TEST(Distributed, RandomPlacementOverRanksIsBitwiseOneRanks) {
 TEST(Distributed, SoftFloorSplitOverRanksIsBitwiseOneRanks) {
   const int n = comm_size(MPI_COMM_WORLD);
   EXPECT_EQ(split_candidates(soft_floor(), n), n > 1 ? std::vector<int>{0} : std::vector<int>{});
-  for (const int threads : {1, 2}) {
-    SCOPED_TRACE(std::to_string(threads) + " thread(s) per rank");
+  // The floor's parts by METIS (the default for its size) and by the coordinate bisection.
+  static const Scene bisected = [] {
+    Scene s = soft_floor();
+    s.sim.split_parts = SplitParts::bisection;
+    return s;
+  }();
+  for (const int threads : {1, 2, 0}) {
+    const Scene& scene = threads > 0 ? soft_floor() : bisected;
+    SCOPED_TRACE(threads > 0 ? std::to_string(threads) + " thread(s) per rank" : "split_parts: bisection, 1 thread");
     int split_steps = 0, migrations = 0;
     expect_identical(
-        threads,
+        std::max(threads, 1),
         [&](Simulator& sim, int s) {
           // Every rank holds the floor (its owner, or a ghost under the balls): all share it,
           // and every part off the owner takes the floor's positions from its ghost rows.
@@ -417,7 +424,7 @@ TEST(Distributed, SoftFloorSplitOverRanksIsBitwiseOneRanks) {
           EXPECT_EQ(from_ghosts, n - 1) << "step " << s;
           migrations += migrate_at_step_55(sim, s);
         },
-        nullptr, soft_floor());
+        nullptr, scene);
     EXPECT_EQ(split_steps, n > 1 ? kSteps : 0) << "the floor was not split at every step";
     EXPECT_EQ(migrations, n > 1 ? 1 : 0);
   }
@@ -668,20 +675,25 @@ TEST(Distributed, SoftFloorSplitWithoutGhostsIsBitwiseOneRanks) {
 // each step): per vertex of each other part (a vertex of one of its tets), the velocity
 // (3 doubles: the floor has stiffness damping) and, only to a part that does not hold the
 // floor as a ghost, the position (3 more). The reference counts the parts' vertices from
-// the floor's mesh and its METIS parts (split_tet_parts), not from the split's plan.
+// the floor's mesh and its parts (split_tet_parts: by METIS, the default for a floor of
+// this size, and by the coordinate bisection with `split_parts: bisection`), not from the
+// split's plan.
 TEST(Distributed, SplitOwnerSendsPositionsOnlyToPartsWithoutTheGhost) {
   const int n = comm_size(MPI_COMM_WORLD), rank = comm_rank(MPI_COMM_WORLD);
   if (n == 1) GTEST_SKIP() << "nothing is split on one rank";
   constexpr int kRun = 12;
-  for (const bool far : {false, true}) {
+  for (const bool far : {false, true})
+  for (const SplitParts how : {SplitParts::automatic, SplitParts::bisection}) {
     SCOPED_TRACE(far ? "balls far above the floor" : "balls on the floor");
-    const Scene& scene = far ? soft_floor_far() : soft_floor();
+    SCOPED_TRACE(how == SplitParts::bisection ? "split_parts: bisection" : "split_parts: auto");
+    Scene scene = far ? soft_floor_far() : soft_floor();
+    scene.sim.split_parts = how;
     Simulator sim(MPI_COMM_WORLD, scene);
     for (int s = 0; s < kRun; ++s) sim.step();
     ASSERT_EQ(sim.ghost_rebuilds(), 1) << "the ghost set changed: the reference below assumes it did not";
     const int owner = sim.partition()[0];
     const TetMesh& floor = scene.mesh(0);
-    const std::vector<std::int32_t> part = split_tet_parts(floor, n);
+    const std::vector<std::int32_t> part = split_tet_parts(floor, n, how == SplitParts::bisection ? 0 : kSplitMetisMaxTets);
     std::int64_t vertices = 0;  // sum over the parts q != owner of the vertices of q's tets
     for (int q = 0; q < n; ++q) {
       if (q == owner) continue;
