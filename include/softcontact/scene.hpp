@@ -153,10 +153,25 @@ struct Placement {
   TetMesh place() const;
 };
 
+/// What the objects of one scene entry have in common besides their material and mesh:
+/// every copy of an entry holds the same one (shared), so that a scene of many copies
+/// keeps it once per entry, not once per object (docs/architecture.md, "Who holds which
+/// mesh").
+struct ObjectTraits {
+  std::string source;          ///< "file.msh" or "primitive sphere" (for summaries)
+  Vec3 velocity{};             ///< initial velocity of every vertex [m/s]
+  bool kinematic = false;      ///< the whole object is fixed (infinite mass)
+  std::vector<Box> fixed;      ///< vertices inside any of these (world coordinates) are fixed
+  Motion motion;               ///< prescribed motion of the fixed vertices (none by default)
+};
+
+/// The traits of an object made by hand: no source, at rest, movable, nothing fixed, no
+/// motion (one instance, shared).
+const std::shared_ptr<const ObjectTraits>& default_object_traits();
+
 /// One object (one instance of a scene entry), mesh in world coordinates.
 struct SceneObject {
   std::string name;            ///< entry name, with "[k]" appended for instance k of a multi-instance entry
-  std::string source;          ///< "file.msh" or "primitive sphere" (for summaries)
   int material = 0;            ///< index into Scene::materials
   /// The placed mesh. Empty on a rank that dropped it (Scene::drop_meshes): read it
   /// through Scene::mesh(k), which makes it again from `placement` when needed. Mutable
@@ -165,10 +180,8 @@ struct SceneObject {
   Placement placement;
   mutable std::shared_ptr<const Surface> surface;       ///< cache of Scene::surface(k)
   mutable std::optional<ObjectShape> shape;             ///< cache of Scene::shape(k)
-  Vec3 velocity{};             ///< initial velocity of every vertex [m/s]
-  bool kinematic = false;      ///< the whole object is fixed (infinite mass)
-  std::vector<Box> fixed;    ///< vertices inside any of these (world coordinates) are fixed
-  Motion motion;               ///< prescribed motion of the fixed vertices (none by default)
+  /// Its entry's source, initial velocity, fixed vertices and motion (never null).
+  std::shared_ptr<const ObjectTraits> traits = default_object_traits();
   /// The scene entry it is a copy of (-1: none known). All copies of an entry are rigid
   /// motions of one scaled mesh with one material, so they share their frequencies.
   int entry = -1;
@@ -176,6 +189,14 @@ struct SceneObject {
   /// (a single-copy entry made by one rank: docs/architecture.md, "Who reads which mesh
   /// file"); -1: every rank made it, or it was read on one rank alone.
   int maker = -1;
+
+  const std::string& source() const { return traits->source; }
+  const Vec3& velocity() const { return traits->velocity; }
+  bool kinematic() const { return traits->kinematic; }
+  const std::vector<Box>& fixed() const { return traits->fixed; }
+  const Motion& motion() const { return traits->motion; }
+  /// Gives this object traits of its own (objects made by hand, tests).
+  void set_traits(ObjectTraits t) { traits = std::make_shared<const ObjectTraits>(std::move(t)); }
 };
 
 enum class ContactClosure { local, coupled };

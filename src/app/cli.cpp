@@ -300,15 +300,15 @@ void print_summary(const Scene& s, std::ostream& out) {
     tris += s.shape(k).triangles;
     std::size_t fixed = 0;
     for (std::size_t i = 0; i < mesh.num_vertices(); ++i) {
-      bool f = o.kinematic;
-      for (const Box& b : o.fixed) f = f || b.contains(&mesh.points[3 * i]);
+      bool f = o.kinematic();
+      for (const Box& b : o.fixed()) f = f || b.contains(&mesh.points[3 * i]);
       fixed += f;
     }
     if (k < kShown)
       out << "  " << std::left << std::setw(24) << o.name << std::setw(14) << m.name << std::setw(14)
           << to_string(m.model) << std::right << std::setw(10) << mesh.num_vertices() << std::setw(10)
           << mesh.num_tets() << std::setw(14) << std::setprecision(5) << mass << "  "
-          << (o.kinematic ? "all (kinematic)" : std::to_string(fixed)) << "\n";
+          << (o.kinematic() ? "all (kinematic)" : std::to_string(fixed)) << "\n";
   }
   if (s.objects.size() > kShown) out << "  ... and " << s.objects.size() - kShown << " more objects\n";
   out << "  total: " << s.num_vertices() << " vertices, " << s.num_tets() << " tets, " << tris
@@ -346,7 +346,7 @@ void print_split_objects(const Scene& s, int ranks, std::ostream& out) {
   std::vector<std::size_t> split;
   for (std::size_t k = 0; k < s.objects.size(); ++k) {
     if (mask[k]) split.push_back(k);
-    if (!s.objects[k].kinematic && (largest == s.objects.size() || s.shape(k).tets > s.shape(largest).tets)) largest = k;
+    if (!s.objects[k].kinematic() && (largest == s.objects.size() || s.shape(k).tets > s.shape(largest).tets)) largest = k;
   }
   auto share = [&](std::size_t k) {
     std::ostringstream p;

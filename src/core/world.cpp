@@ -49,8 +49,8 @@ void append_object(World& w, const Scene& scene, int k) {
   }
   for (std::size_t i = 0; i < m.num_vertices(); ++i) {
     const double* p = &m.points[3 * i];
-    bool fixed = o.kinematic;
-    for (const Box& b : o.fixed) fixed = fixed || b.contains(p);
+    bool fixed = o.kinematic();
+    for (const Box& b : o.fixed()) fixed = fixed || b.contains(p);
     w.vertex_gid.push_back(L.vertex_begin + static_cast<gid_t>(i));
     w.vertex_object.push_back(k);
     w.mass.push_back(mass[i]);
@@ -58,7 +58,7 @@ void append_object(World& w, const Scene& scene, int k) {
     for (int d = 0; d < 3; ++d) {
       w.x.push_back(p[d]);
       w.x_prev.push_back(p[d]);
-      w.v.push_back(fixed ? 0.0 : o.velocity[d]);
+      w.v.push_back(fixed ? 0.0 : o.velocity()[d]);
     }
   }
   for (std::size_t t = 0; t < s.num_triangles(); ++t) {
@@ -78,7 +78,7 @@ World build_world(const Scene& scene, const std::vector<int>& object_rank, int r
   w.vertex_offset.assign(no, -1);
   for (std::size_t k = 0; k < no; ++k) {
     const ObjectShape& m = scene.shape(k);
-    w.motion[k] = scene.objects[k].motion;
+    w.motion[k] = scene.objects[k].motion();
     ObjectLayout& L = w.layout[k];
     L.vertex_begin = w.global_vertices;
     L.vertex_count = static_cast<gid_t>(m.vertices);

@@ -63,17 +63,17 @@ std::uint64_t fingerprint_with_dt(const Scene& scene, double dt, const std::vect
   for (std::size_t k = 0; k < scene.objects.size(); ++k) {
     const SceneObject& o = scene.objects[k];
     f.value(o.material);
-    f.value(o.kinematic);
-    f.value(o.velocity);
+    f.value(o.kinematic());
+    f.value(o.velocity());
     f.value(digests[k]);  // the mesh: its points and tets (mesh_digest)
-    f.value(o.fixed.size());
-    for (const Box& b : o.fixed) {
+    f.value(o.fixed().size());
+    for (const Box& b : o.fixed()) {
       f.value(b.lo);
       f.value(b.hi);
     }
-    f.value(o.motion.velocity);
-    f.value(o.motion.start);
-    f.value(o.motion.stop);
+    f.value(o.motion().velocity);
+    f.value(o.motion().start);
+    f.value(o.motion().stop);
   }
   return f.get();
 }

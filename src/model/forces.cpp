@@ -68,7 +68,7 @@ ElasticForces::ElasticForces(const Scene& scene, const World& w) {
       s.young = mat.young;
       s.alpha = mat.damping_mass;
       s.beta = mat.damping_stiffness;
-      s.active = !scene.objects[obj].kinematic;
+      s.active = !scene.objects[obj].kinematic();
       segments_.push_back(s);
     }
     segments_.back().end = t + 1;

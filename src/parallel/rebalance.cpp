@@ -19,7 +19,7 @@ namespace softcontact {
 // Kinematic objects cost no forces, only their share of detection.
 std::int64_t static_work(const Scene& scene, std::size_t k) {
   const ObjectShape& s = scene.shape(k);
-  return scene.objects[k].kinematic ? static_cast<std::int64_t>(s.triangles / 10) : static_cast<std::int64_t>(s.tets);
+  return scene.objects[k].kinematic() ? static_cast<std::int64_t>(s.triangles / 10) : static_cast<std::int64_t>(s.tets);
 }
 
 namespace {

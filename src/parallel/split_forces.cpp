@@ -17,7 +17,7 @@ namespace softcontact {
 namespace {
 bool candidate_of(const Scene& scene, std::size_t k, int nranks, double total_tets) {
   if (nranks <= 1 || !scene.sim.split_objects || scene.sim.integrator == IntegratorKind::implicit_euler ||
-      scene.objects[k].kinematic)
+      scene.objects[k].kinematic())
     return false;
   return static_cast<double>(scene.shape(k).tets) * nranks > total_tets;
 }

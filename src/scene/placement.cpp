@@ -157,18 +157,26 @@ private:
   std::unordered_map<Cell, std::vector<std::size_t>, CellHash> grid_;
 };
 
+/// What the entry's objects share (one instance for all its copies).
+std::shared_ptr<const ObjectTraits> traits_of(const EntrySpec& spec) {
+  ObjectTraits t;
+  t.source = spec.source;
+  t.velocity = spec.velocity;
+  t.kinematic = spec.kinematic;
+  t.fixed = spec.fixed;
+  t.motion = spec.motion;
+  return std::make_shared<const ObjectTraits>(std::move(t));
+}
+
 /// An object of the entry; a copy without its mesh gets its shape from the caller.
-SceneObject make_object(const EntrySpec& spec, TetMesh mesh, const std::string& name, Placement placement = {}) {
+SceneObject make_object(const EntrySpec& spec, const std::shared_ptr<const ObjectTraits>& traits, TetMesh mesh,
+                        const std::string& name, Placement placement = {}) {
   SceneObject o;
   o.name = name;
-  o.source = spec.source;
   o.material = spec.material;
   o.mesh = std::move(mesh);
   o.placement = std::move(placement);
-  o.velocity = spec.velocity;
-  o.kinematic = spec.kinematic;
-  o.fixed = spec.fixed;
-  o.motion = spec.motion;
+  o.traits = traits;
   o.entry = spec.index;
   return o;
 }
@@ -210,7 +218,7 @@ SceneObject single_made_elsewhere(const EntrySpec& spec, std::uint64_t digest, c
   Placement p;
   p.kind = Placement::Kind::entry;
   p.base = EntryMesh::made_elsewhere(entry_source(spec), digest, placed_remake(spec));
-  SceneObject o = make_object(spec, TetMesh(), spec.name, std::move(p));
+  SceneObject o = make_object(spec, traits_of(spec), TetMesh(), spec.name, std::move(p));
   o.shape = shape;
   return o;
 }
@@ -220,6 +228,7 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool 
   // The entry's mesh as its transform places it, and how to make it again.
   std::function<TetMesh()> remake = placed_remake(spec);
   const std::string source = entry_source(spec);
+  const std::shared_ptr<const ObjectTraits> traits = traits_of(spec);
   TetMesh placed = transformed(spec.mesh, spec.scale, spec.rotation, spec.translate);
   if (spec.instancing == EntrySpec::Instancing::single) {
     // The object is the entry: its mesh is held by the object, and the entry keeps only
@@ -229,7 +238,7 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool 
       p.kind = Placement::Kind::entry;
       p.base = EntryMesh::recipe(source, placed, std::move(remake));
     }
-    objects.push_back(make_object(spec, std::move(placed), spec.name, std::move(p)));
+    objects.push_back(make_object(spec, traits, std::move(placed), spec.name, std::move(p)));
     return;
   }
   // Copies keep the entry's mesh once, shared, and how each is placed from it, so that a
@@ -264,7 +273,7 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool 
             const std::string name = spec.name + "[" + std::to_string(k++) + "]";
             if (hold_meshes) {
               TetMesh m = p.place();
-              objects.push_back(make_object(spec, std::move(m), name, std::move(p)));
+              objects.push_back(make_object(spec, traits, std::move(m), name, std::move(p)));
               continue;
             }
             ObjectShape s = copy_shape;
@@ -272,7 +281,7 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool 
               s.box.lo[d] = base_box.lo[d] + p.offset[d];
               s.box.hi[d] = base_box.hi[d] + p.offset[d];
             }
-            SceneObject o = make_object(spec, TetMesh(), name, std::move(p));
+            SceneObject o = make_object(spec, traits, TetMesh(), name, std::move(p));
             o.shape = s;
             objects.push_back(std::move(o));
           }
@@ -301,7 +310,7 @@ void instantiate(const EntrySpec& spec, std::vector<SceneObject>& objects, bool 
         p.centre = own.c;
         // a slot: counts and an empty box until placed (the box of a mesh-holding copy
         // is dropped again when it is placed)
-        SceneObject o = make_object(spec, TetMesh(), spec.name + "[" + std::to_string(k) + "]", std::move(p));
+        SceneObject o = make_object(spec, traits, TetMesh(), spec.name + "[" + std::to_string(k) + "]", std::move(p));
         o.shape = copy_shape;
         o.shape->box = Box::none();
         objects.push_back(std::move(o));

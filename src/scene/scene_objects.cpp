@@ -39,6 +39,11 @@ std::size_t mesh_bytes(const TetMesh& m) {
 }
 }  // namespace
 
+const std::shared_ptr<const ObjectTraits>& default_object_traits() {
+  static const std::shared_ptr<const ObjectTraits> none = std::make_shared<const ObjectTraits>();
+  return none;
+}
+
 EntryMesh::EntryMesh(std::string source, std::uint64_t digest, std::function<TetMesh()> remake)
     : source_(std::move(source)), remake_(std::move(remake)), digest_(digest) {}
 

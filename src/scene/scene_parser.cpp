@@ -692,7 +692,7 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
         put_real(v, at + 14 + 2 * c, sh.box.hi[c]);
       }
       put_word(v, at + 20, o.placement.base->digest());
-      if (o.kinematic) continue;
+      if (o.kinematic()) continue;
       const Material& mat = scene.materials[static_cast<std::size_t>(o.material)];
       const double w = max_tet_frequency(o.mesh, mat);
       put_real(v, at + 22, w);
@@ -988,7 +988,7 @@ std::vector<double> object_frequencies(const Scene& scene, int part, int parts,
   std::map<std::pair<const EntryMesh*, int>, std::size_t> first;  // (entry mesh, material) -> its first copy
   for (std::size_t i = 0; i < n; ++i) {
     const SceneObject& o = scene.objects[i];
-    if (o.kinematic) continue;
+    if (o.kinematic()) continue;
     from[i] = i;
     if (known.count(i)) continue;
     if (o.placement.is_copy()) {
@@ -1010,7 +1010,7 @@ std::vector<double> object_frequencies(const Scene& scene, int part, int parts,
   if (shared) sum(frequency);  // 0 + w is w, NaN stays NaN: each value as computed alone
   for (const auto& [i, w] : known) frequency[i] = w;
   for (std::size_t i = 0; i < n; ++i)
-    if (!scene.objects[i].kinematic) frequency[i] = frequency[from[i]];
+    if (!scene.objects[i].kinematic()) frequency[i] = frequency[from[i]];
   return frequency;
 }
 
@@ -1076,7 +1076,7 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path, c
   if (scene.sim.integrator == IntegratorKind::implicit_euler)
     for (const auto& o : scene.objects) {
       const Material& mat = scene.materials[o.material];
-      if (o.kinematic || model::material_law(mat.model).implicit) continue;
+      if (o.kinematic() || model::material_law(mat.model).implicit) continue;
       std::vector<const char*> ok;
       for (int k = 0; k < kModelKinds; ++k)
         if (model::material_law(static_cast<ModelKind>(k)).implicit) ok.push_back(kModelNames[k]);
@@ -1102,11 +1102,11 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path, c
   if (!limits.hold_copy_meshes) scene.describe_objects(limits.part, limits.parts, limits.sum);
   for (std::size_t i = 0; i < scene.objects.size(); ++i) {
     const SceneObject& o = scene.objects[i];
-    if (o.kinematic) continue;
+    if (o.kinematic()) continue;
     const double w = frequency[i];
     if (!(w > 0 && w < std::numeric_limits<double>::infinity())) {
       std::ostringstream s;
-      s << "object '" << o.name << "' (material '" << scene.materials[o.material].name << "', " << o.source
+      s << "object '" << o.name << "' (material '" << scene.materials[o.material].name << "', " << o.source()
         << ") has a highest tet frequency of " << w << " rad/s, so no time step is stable (expected a positive finite "
         << "value: check 'young' and 'density' and that its tets are not flattened to zero volume)";
       r.fail(root["objects"], s.str());
@@ -1172,7 +1172,7 @@ StableStep stable_step(const Scene& scene, DtBound bound) {
   std::map<int, MeshFrequency> mesh_cache;
   const std::vector<double> frequency = object_frequencies(scene, 0, 1, nullptr);
   for (std::size_t i = 0; i < scene.objects.size(); ++i)
-    if (!scene.objects[i].kinematic) take_smaller(stable, scene, i, frequency[i], bound, mesh_cache);
+    if (!scene.objects[i].kinematic()) take_smaller(stable, scene, i, frequency[i], bound, mesh_cache);
   return stable;
 }
 

@@ -41,7 +41,7 @@ GuardScales guard_scales(const Scene& scene, int part, int parts, const std::fun
     }
     per[kCols * k] = lo;
     per[kCols * k + 1] = hi;
-    per[kCols * k + 2] = scene.objects[k].kinematic ? 0.0 : tet_volume_sum(mesh);
+    per[kCols * k + 2] = scene.objects[k].kinematic() ? 0.0 : tet_volume_sum(mesh);
     per[kCols * k + 3] = static_cast<double>(mesh.num_tets());
   }
   if (parts > 1) sum(per);
@@ -52,11 +52,11 @@ GuardScales guard_scales(const Scene& scene, int part, int parts, const std::fun
   for (std::size_t k = 0; k < n; ++k) {
     const SceneObject& o = scene.objects[k];
     const Material& m = scene.materials[static_cast<std::size_t>(o.material)];
-    v = std::max({v, norm3(o.velocity), norm3(o.motion.velocity)});
-    motion = motion || o.motion.moves();
+    v = std::max({v, norm3(o.velocity()), norm3(o.motion().velocity)});
+    motion = motion || o.motion().moves();
     lo = std::min(lo, per[kCols * k]);
     hi = std::max(hi, per[kCols * k + 1]);
-    if (o.kinematic) continue;
+    if (o.kinematic()) continue;
     c = std::max(c, m.wave_speed());
     const double volume = per[kCols * k + 2];
     mass += m.density * volume;

@@ -161,7 +161,7 @@ std::string Simulator::check_inversions(double max_fraction) {
       current = k;
       object_first = t;
     }
-    if (scene_.objects[static_cast<std::size_t>(k)].kinematic) continue;
+    if (scene_.objects[static_cast<std::size_t>(k)].kinematic()) continue;
     ++counts[1];
     const double* p[4];
     for (int c = 0; c < 4; ++c) p[c] = &w.x[3 * static_cast<std::size_t>(w.tets[4 * t + static_cast<std::size_t>(c)])];

@@ -119,7 +119,7 @@ LocalCheck& Simulator::local_check() {
   const std::size_t objects = scene_.objects.size();
   m.object_fixed.resize(objects);
   c->counted.assign(objects, 0);
-  for (std::size_t k = 0; k < objects; ++k) m.object_fixed[k] = scene_.objects[k].kinematic ? 1 : 0;
+  for (std::size_t k = 0; k < objects; ++k) m.object_fixed[k] = scene_.objects[k].kinematic() ? 1 : 0;
   for (int k : w.owned_objects) c->counted[static_cast<std::size_t>(k)] = 1;
   prepare_verify_mesh(m, rest.data(), scene_.path);
 

@@ -462,7 +462,7 @@ VerifyMesh verify_mesh_of(const Scene& scene) {
     m.tet_object.insert(m.tet_object.end(), mesh.num_tets(), obj);
     for (index_t v : surface.triangles) m.triangles.push_back(base + v);
     m.triangle_object.insert(m.triangle_object.end(), surface.num_triangles(), obj);
-    m.object_fixed.push_back(o.kinematic ? 1 : 0);
+    m.object_fixed.push_back(o.kinematic() ? 1 : 0);
     base += static_cast<gid_t>(mesh.num_vertices());
   }
   prepare_verify_mesh(m, initial_positions(scene).data(), scene.path);
@@ -539,7 +539,7 @@ void merge_verify_part(VerifyFrame& f, const VerifyFrame& p) {
 double initial_speed(const Scene& scene) {
   double v0 = 0;
   auto norm = [](const Vec3& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); };
-  for (const SceneObject& o : scene.objects) v0 = std::max({v0, norm(o.velocity), norm(o.motion.velocity)});
+  for (const SceneObject& o : scene.objects) v0 = std::max({v0, norm(o.velocity()), norm(o.motion().velocity)});
   return v0;
 }
 

@@ -305,7 +305,7 @@ TEST(ElasticForces, ObjectsEvaluatedWholeAddInTetOrder) {
 
   std::vector<double> ref(w.x.size(), 0.0);
   for (std::size_t t = 0; t < w.m_owned; ++t) {
-    if (s.objects[static_cast<std::size_t>(w.tet_object[t])].kinematic) continue;
+    if (s.objects[static_cast<std::size_t>(w.tet_object[t])].kinematic()) continue;
     double c[12];
     ef.tet_forces(t, w.x.data(), c);
     for (int k = 0; k < 4; ++k)

@@ -188,7 +188,11 @@ TEST(SplitCandidates, TheMaskNamesWhatEachObjectsTestNames) {
     sh.vertices = tets[k] / 2;
     sh.box = Box{{2.0 * static_cast<double>(k), 0, 0}, {2.0 * static_cast<double>(k) + 1, 1, 1}};
     o.shape = sh;
-    o.kinematic = k == 4;
+    if (k == 4) {
+      ObjectTraits fixed;
+      fixed.kinematic = true;
+      o.set_traits(fixed);
+    }
     s.objects.push_back(std::move(o));
   }
   const std::vector<std::vector<char>> expected = {

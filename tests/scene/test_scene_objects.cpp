@@ -364,7 +364,7 @@ TEST(SceneObjects, CopiesOfAnEntryTakeTheFrequencyOfItsMesh) {
   ASSERT_EQ(one.objects.size(), 1u + 6u + 12u + 1u);
   double wmax = 0;
   for (std::size_t k = 0; k < one.objects.size(); ++k) {
-    if (one.objects[k].kinematic) continue;
+    if (one.objects[k].kinematic()) continue;
     const TetMesh& m = one.objects[k].mesh;
     for (std::size_t t = 0; t < m.num_tets(); ++t) {
       double X[12];

@@ -129,7 +129,7 @@ TEST(SharedPasses, GuardScalesOverPartsAreOnePartsToTheBit) {
   const Scene held = load_scene_from_string(kScene, "scene.yaml");
   const GuardScales one = guard_scales(held);
   std::int64_t movable = 0;
-  for (const SceneObject& o : held.objects) movable += o.kinematic ? 0 : static_cast<std::int64_t>(o.mesh.num_tets());
+  for (const SceneObject& o : held.objects) movable += o.kinematic() ? 0 : static_cast<std::int64_t>(o.mesh.num_tets());
   EXPECT_EQ(one.movable_tets, movable);
   EXPECT_GT(one.release, 0);
   EXPECT_GT(one.max_speed, 0);
