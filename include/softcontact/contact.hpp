@@ -151,8 +151,8 @@ private:
     double dx[3];            // x - x^t (x~, then corrected)
     double dx0[3];           // x~ - x^t: the step's unconstrained motion
     double normal[3];        // sum of normal local forces
-    double normal_dynamic[3];// their dynamic part (changes velocities)
-    double friction[3];      // sum of friction local forces
+    double dynamic[6];       // what changes velocities, summed in one exchange: [0, 3) the
+                             // normal forces' dynamic part, [3, 6) the friction local forces
     double depth[3];         // sum of d_i as point i
     gid_t gid;
   };
@@ -180,8 +180,8 @@ private:
   };
   std::int32_t slot_of_vertex(const World& w, index_t v);
   void plan_ghosts(const World& w, NeighbourExchange* exchange);
-  template <class Emit>
-  void sum(const std::vector<Collision>& col, Emit&& emit, double (Slot::*field)[3]);
+  template <std::size_t N, class Emit>
+  void sum(const std::vector<Collision>& col, Emit&& emit, double (Slot::*field)[N]);
   void reply(double (Slot::*field)[3]);
   void effective_depths(const std::vector<Collision>& c, double dt);
   std::int64_t normal_coefficients(const std::vector<Collision>& c, double dt);

@@ -13,6 +13,7 @@
 // values of the vertices a neighbour asked for back into its ghost slots. Only the
 // transport (NeighbourExchange) knows about MPI.
 #include <algorithm>
+#include <cstring>
 #include <cstdint>
 #include <functional>
 #include <utility>
@@ -32,26 +33,34 @@ public:
     bool operator<(const Key& o) const { return point != o.point ? point < o.point : triangle < o.triangle; }
   };
 
+  /// Most components a sum may have per slot.
+  static constexpr int kMaxDim = 6;
+
   /// Starts a step over `exchange` (null: one rank). `owner[k]` is the rank that owns
   /// slot k's vertex (-1 or this rank: owned), `gid[k]` its global id. Neighbours ask
   /// for the sums of owned vertices: `slot_of(gid)` returns the slot of such a vertex
   /// (the caller adds one if it has none; new slots are numbered on from owner.size()).
-  /// Collective over the exchange's neighbours, also with no slots.
+  /// No message here: the global ids of the ghost slots travel to their owners with the
+  /// first reduce() (or reply()) of the step, which is when the neighbours' slots are
+  /// added (slots() grows then, and target()/value() may be called for them), so
+  /// `slot_of` must stay callable until then. Every rank makes the same sequence of
+  /// calls, also with no slots.
   void plan(NeighbourExchange* exchange, const std::vector<int>& owner, const std::vector<gid_t>& gid,
-            const std::function<std::int32_t(gid_t)>& slot_of);
+            std::function<std::int32_t(gid_t)> slot_of);
 
   /// One rank: `n` slots, all owned; no exchange. (plan() with a null exchange, without
   /// building its lists.)
   void plan_local(std::size_t n);
 
-  /// Slots after plan() (the given ones and those added for neighbours).
+  /// Slots: the ones given to plan(), and from the step's first exchange on those added
+  /// for neighbours.
   std::size_t slots() const { return nb_.size(); }
   /// Whether slot k's vertex belongs to this rank (its sums are complete after reduce()).
   bool owned(std::size_t k) const { return nb_[k] < 0; }
   /// No neighbour: every sum is local.
   bool local() const { return request_.empty(); }
 
-  /// Sums a quantity of `dim` (<= 3) components per slot over the collisions
+  /// Sums a quantity of `dim` (<= kMaxDim) components per slot over the collisions
   /// 0..n-1, whose keys `key(q)` ascend. emit(q, f) calls f(slot, value) for every
   /// contribution of collision q; target(slot) is the sum to add to (zero before).
   /// Owned slots get their complete sums, ghost slots none (reply() fills what is
@@ -67,18 +76,28 @@ public:
 
 private:
   // A contribution to an owned vertex's sum from another rank, with its collision's key.
+  // On the wire: the three global ids, then `dim` doubles (write_record, receive).
   struct Record {
     gid_t vertex;
     Key key;
-    double v[3];
+    double v[kMaxDim];
   };
   struct Contribution {
     std::int32_t slot;
     Key key;
-    double v[3];
+    double v[kMaxDim];
   };
+  static void write_record(std::vector<char>& buf, gid_t vertex, const Key& key, const double* v, int dim);
   std::int32_t served_slot(gid_t vertex) const;
-  void receive(const std::vector<std::vector<char>>& recv);
+  // The send buffers of an exchange, emptied; with the plan's requests first when they
+  // have not travelled yet.
+  std::vector<std::vector<char>>& start_messages();
+  // The neighbours' requests (when start_messages() wrote ours), then their records of
+  // `dim` components.
+  void receive(const std::vector<std::vector<char>>& recv, int dim);
+  // Reads a request list at the start of each message, adds the served slots; returns
+  // where each message's rest begins.
+  std::vector<std::size_t> receive_requests(const std::vector<std::vector<char>>& recv);
 
   NeighbourExchange* exchange_ = nullptr;
   std::vector<std::int32_t> nb_;                   // per slot: its owner's index among the neighbours, -1 owned
@@ -90,6 +109,9 @@ private:
   std::vector<std::int32_t> served_slots_;         // their slots
   std::vector<Record> remote_;                     // received contributions (one sum at a time)
   std::vector<Contribution> merge_;                // every contribution to slots with remote ones
+  std::function<std::int32_t(gid_t)> slot_of_;     // plan()'s, until the requests have travelled
+  bool requests_pending_ = false;                  // our requests go with the next exchange
+  std::vector<std::vector<char>> send_;            // per neighbour: the message being built (kept)
 };
 
 /// One problem over every rank's rows, solved on rank 0 in key order (the coupled
@@ -134,7 +156,7 @@ std::vector<double> solve_in_key_order(NeighbourExchange* exchange, const std::v
 
 template <class KeyOf, class Emit, class Target>
 void KeyedSums::reduce(std::size_t n, KeyOf&& key, int dim, Emit&& emit, Target&& target) {
-  SC_ASSERT(dim >= 1 && dim <= 3);
+  SC_ASSERT(dim >= 1 && dim <= kMaxDim);
   remote_.clear();
   const std::size_t nn = request_.size();
   if (nn == 0) {  // one rank (or no neighbour): every slot owned, every contribution here
@@ -146,18 +168,13 @@ void KeyedSums::reduce(std::size_t n, KeyOf&& key, int dim, Emit&& emit, Target&
     return;
   }
   {  // contributions to ghost slots go to their owners, with their keys
-    std::vector<std::vector<Record>> out(nn);
+    std::vector<std::vector<char>>& send = start_messages();
     for (std::size_t q = 0; q < n; ++q)
       emit(q, [&](std::int32_t k, const double* v) {
         const std::int32_t nb = nb_[static_cast<std::size_t>(k)];
-        if (nb < 0) return;
-        Record r{gid_[static_cast<std::size_t>(k)], key(q), {0, 0, 0}};
-        for (int d = 0; d < dim; ++d) r.v[d] = v[d];
-        out[static_cast<std::size_t>(nb)].push_back(r);
+        if (nb >= 0) write_record(send[static_cast<std::size_t>(nb)], gid_[static_cast<std::size_t>(k)], key(q), v, dim);
       });
-    std::vector<std::vector<char>> send(nn);
-    for (std::size_t m = 0; m < nn; ++m) append_records(send[m], out[m].data(), out[m].size());
-    receive(exchange_->exchange_bytes(send));
+    receive(exchange_->exchange_bytes(send), dim);
   }
   // Slots without contributions from other ranks: theirs are all here, in key order.
   for (std::size_t q = 0; q < n; ++q)
@@ -173,11 +190,15 @@ void KeyedSums::reduce(std::size_t n, KeyOf&& key, int dim, Emit&& emit, Target&
   for (std::size_t q = 0; q < n; ++q)
     emit(q, [&](std::int32_t k, const double* v) {
       if (!remote_flag_[static_cast<std::size_t>(k)]) return;
-      Contribution c{k, key(q), {0, 0, 0}};
+      Contribution c{k, key(q), {}};
       for (int d = 0; d < dim; ++d) c.v[d] = v[d];
       merge_.push_back(c);
     });
-  for (const Record& r : remote_) merge_.push_back(Contribution{served_slot(r.vertex), r.key, {r.v[0], r.v[1], r.v[2]}});
+  for (const Record& r : remote_) {
+    Contribution c{served_slot(r.vertex), r.key, {}};
+    for (int d = 0; d < dim; ++d) c.v[d] = r.v[d];
+    merge_.push_back(c);
+  }
   std::sort(merge_.begin(), merge_.end(), [](const Contribution& a, const Contribution& b) {
     return a.slot != b.slot ? a.slot < b.slot : a.key < b.key;
   });
@@ -192,24 +213,20 @@ template <class Value>
 void KeyedSums::reply(int dim, Value&& value) {
   const std::size_t nn = request_.size();
   if (nn == 0) return;
-  std::vector<std::vector<char>> send(nn);
-  for (std::size_t m = 0; m < nn; ++m) {
-    std::vector<double> vals;
-    vals.reserve(static_cast<std::size_t>(dim) * served_[m].size());
+  if (requests_pending_) {  // no reduce this step: the requests travel alone first
+    receive_requests(exchange_->exchange_bytes(start_messages()));
+  }
+  std::vector<std::vector<char>>& send = start_messages();
+  for (std::size_t m = 0; m < nn; ++m)
     for (std::int32_t k : served_[m]) {
       const double* v = value(k);
-      vals.insert(vals.end(), v, v + dim);
+      append_records(send[m], v, static_cast<std::size_t>(dim));
     }
-    append_records(send[m], vals.data(), vals.size());
-  }
   const auto recv = exchange_->exchange_bytes(send);
+  const std::size_t row = static_cast<std::size_t>(dim) * sizeof(double);
   for (std::size_t m = 0; m < nn; ++m) {
-    const std::vector<double> vals = read_records<double>(recv[m]);
-    SC_ASSERT(vals.size() == static_cast<std::size_t>(dim) * request_[m].size());
-    for (std::size_t i = 0; i < request_[m].size(); ++i) {
-      double* v = value(request_[m][i]);
-      for (int d = 0; d < dim; ++d) v[d] = vals[static_cast<std::size_t>(dim) * i + static_cast<std::size_t>(d)];
-    }
+    SC_ASSERT(recv[m].size() == row * request_[m].size());
+    for (std::size_t i = 0; i < request_[m].size(); ++i) std::memcpy(value(request_[m][i]), recv[m].data() + row * i, row);
   }
 }
 

@@ -36,14 +36,17 @@ inline double norm3(const double* a) { return std::sqrt(a[0] * a[0] + a[1] * a[1
 
 // A vector v acting on a collision's point side: all on i for a vertex collision, split
 // by the weights (pw, 1 - pw) over an edge contact's two vertices.
-template <class LocalT, class F>
+template <int N = 3, class LocalT, class F>
 void emit_point_side(const LocalT& L, const double* v, F&& f) {
   if (L.slot2 < 0) {
     f(L.slot[0], v);
     return;
   }
-  const double a[3] = {L.pw * v[0], L.pw * v[1], L.pw * v[2]};
-  const double b[3] = {(1 - L.pw) * v[0], (1 - L.pw) * v[1], (1 - L.pw) * v[2]};
+  double a[N], b[N];
+  for (int d = 0; d < N; ++d) {
+    a[d] = L.pw * v[d];
+    b[d] = (1 - L.pw) * v[d];
+  }
   f(L.slot[0], a);
   f(L.slot2, b);
 }
@@ -98,10 +101,11 @@ void ContactResponse::plan_ghosts(const World& w, NeighbourExchange* exchange) {
 }
 
 // A per-slot field summed over the collisions in key order (KeyedSums::reduce).
-template <class Emit>
-void ContactResponse::sum(const std::vector<Collision>& col, Emit&& emit, double (Slot::*field)[3]) {
+template <std::size_t N, class Emit>
+void ContactResponse::sum(const std::vector<Collision>& col, Emit&& emit, double (Slot::*field)[N]) {
   sums_.reduce(
-      col.size(), [&](std::size_t q) { return KeyedSums::Key{col[q].point_gid, col[q].triangle_gid}; }, 3, emit,
+      col.size(), [&](std::size_t q) { return KeyedSums::Key{col[q].point_gid, col[q].triangle_gid}; },
+      static_cast<int>(N), emit,
       [&](std::int32_t k) -> double* { return slots_[static_cast<std::size_t>(k)].*field; });
 }
 
@@ -483,42 +487,33 @@ void ContactResponse::respond(World& w, const std::vector<Collision>& col, doubl
       for (int d = 0; d < 3; ++d) slots_[k].dx[d] += dt2 * slots_[k].inv_mass * slots_[k].normal[d];
   reply(&Slot::dx);
   dynamic_fractions(col);
-  // The dynamic part of the same forces (dynamic_fractions): what changes velocities.
+  for (std::size_t q = 0; q < col.size(); ++q) {
+    if (col[q].point2 >= 0) continue;  // the penetration field is per point: vertex collisions
+    Slot& si = slots_[static_cast<std::size_t>(local_[q].slot[0])];
+    for (int a = 0; a < 3; ++a) si.depth[a] += col[q].depth[static_cast<std::size_t>(a)];
+  }
+  friction_coefficients(col, stats);
+  // What changes velocities, in one sum of six components: the dynamic part of the
+  // normal forces (dynamic_fractions) and the friction forces (friction_coefficients
+  // reads only the corrected motions dx). A collision without friction adds +0 there,
+  // which leaves every sum as it was (a sum that starts at +0 is never -0).
   sum(
       col,
       [&](std::size_t q, auto&& f) {
         const Local& L = local_[q];
         const double* d = L.d;
         const double a = L.ai * L.dynamic;
-        const double fi[3] = {a * d[0], a * d[1], a * d[2]};
-        emit_point_side(L, fi, f);
+        const double fs = L.scale == 0 ? 0.0 : L.fa * L.scale;
+        const double fi[6] = {a * d[0], a * d[1], a * d[2], fs * L.e[0], fs * L.e[1], fs * L.e[2]};
+        emit_point_side<6>(L, fi, f);
         for (int k = 0; k < 3; ++k) {
           const double b = L.aT[k] * L.dynamic;
-          const double fj[3] = {b * d[0], b * d[1], b * d[2]};
+          const double ft = L.scale == 0 ? 0.0 : L.faT[k] * L.scale;
+          const double fj[6] = {b * d[0], b * d[1], b * d[2], ft * L.e[0], ft * L.e[1], ft * L.e[2]};
           f(L.slot[1 + k], fj);
         }
       },
-      &Slot::normal_dynamic);
-  for (std::size_t q = 0; q < col.size(); ++q) {
-    if (col[q].point2 >= 0) continue;  // the penetration field is per point: vertex collisions
-    Slot& si = slots_[static_cast<std::size_t>(local_[q].slot[0])];
-    for (int a = 0; a < 3; ++a) si.depth[a] += col[q].depth[static_cast<std::size_t>(a)];
-  }
-
-  friction_coefficients(col, stats);
-  sum(
-      col,
-      [&](std::size_t q, auto&& f) {
-        const Local& L = local_[q];
-        if (L.scale == 0) return;
-        const double fi[3] = {L.fa * L.scale * L.e[0], L.fa * L.scale * L.e[1], L.fa * L.scale * L.e[2]};
-        emit_point_side(L, fi, f);
-        for (int k = 0; k < 3; ++k) {
-          const double fj[3] = {L.faT[k] * L.scale * L.e[0], L.faT[k] * L.scale * L.e[1], L.faT[k] * L.scale * L.e[2]};
-          f(L.slot[1 + k], fj);
-        }
-      },
-      &Slot::friction);
+      &Slot::dynamic);
 
   double sum[3] = {0, 0, 0}, abs_sum = 0;
   for (std::size_t k = 0; k < slots_.size(); ++k) {
@@ -529,13 +524,13 @@ void ContactResponse::respond(World& w, const std::vector<Collision>& col, doubl
     // position-only part moves x (and x^t with it) but is no force.
     double f[3];
     for (int d = 0; d < 3; ++d) {
-      f[d] = s.normal_dynamic[d] + s.friction[d];
+      f[d] = s.dynamic[d] + s.dynamic[3 + d];
       sum[d] += f[d];
     }
     abs_sum += norm3(f);
     if (s.inv_mass == 0) continue;
     for (int d = 0; d < 3; ++d) {
-      const double shift = dt2 * s.inv_mass * (s.normal[d] - s.normal_dynamic[d]);
+      const double shift = dt2 * s.inv_mass * (s.normal[d] - s.dynamic[d]);
       w.x[3 * v + d] += dt2 * s.inv_mass * f[d] + shift;  // (12): x = x~ + dt^2 F / m, and the shift
       w.v[3 * v + d] += dt * s.inv_mass * f[d];
       w.x_prev[3 * v + d] += shift;  // so that position Verlet sees no velocity from the shift
@@ -618,7 +613,7 @@ void ContactResponse::materialize() {
     if (!sums_.owned(k)) continue;  // ghost: partial sums only
     const index_t v = vertex_of_[k];
     for (int d = 0; d < 3; ++d) {
-      force_[3 * v + d] = slots_[k].normal_dynamic[d] + slots_[k].friction[d];
+      force_[3 * v + d] = slots_[k].dynamic[d] + slots_[k].dynamic[3 + d];
       penetration_[3 * v + d] = slots_[k].depth[d];
     }
   }

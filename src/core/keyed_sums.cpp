@@ -3,6 +3,8 @@
 // sums of. Exchanged once per step.
 #include "softcontact/keyed_sums.hpp"
 
+#include <cstring>
+
 #include "softcontact/error.hpp"
 
 namespace softcontact {
@@ -13,7 +15,7 @@ std::vector<std::vector<char>> NeighbourExchange::exchange_with(const std::vecto
 }
 
 void KeyedSums::plan(NeighbourExchange* exchange, const std::vector<int>& owner, const std::vector<gid_t>& gid,
-                     const std::function<std::int32_t(gid_t)>& slot_of) {
+                     std::function<std::int32_t(gid_t)> slot_of) {
   SC_ASSERT(owner.size() == gid.size());
   exchange_ = exchange;
   gid_ = gid;
@@ -33,30 +35,56 @@ void KeyedSums::plan(NeighbourExchange* exchange, const std::vector<int>& owner,
       nb_[k] = static_cast<std::int32_t>(it - nbr.begin());
       request_[static_cast<std::size_t>(nb_[k])].push_back(static_cast<std::int32_t>(k));
     }
-    std::vector<std::vector<char>> send(nn);
-    for (std::size_t m = 0; m < nn; ++m) {
-      std::vector<gid_t> gids;
-      gids.reserve(request_[m].size());
-      for (std::int32_t k : request_[m]) gids.push_back(gid_[static_cast<std::size_t>(k)]);
-      append_records(send[m], gids.data(), gids.size());
-    }
-    const auto recv = exchange->exchange_bytes(send);
-    std::vector<std::pair<gid_t, std::int32_t>> served;
-    for (std::size_t m = 0; m < nn; ++m)
-      for (gid_t g : read_records<gid_t>(recv[m])) {
-        served_[m].push_back(slot_of(g));
-        served.emplace_back(g, served_[m].back());
-      }
-    std::sort(served.begin(), served.end());
-    served.erase(std::unique(served.begin(), served.end()), served.end());
-    for (const auto& [g, k] : served) {
-      served_gids_.push_back(g);
-      served_slots_.push_back(k);
-      // Slots the caller added for neighbours are owned ones.
-      if (static_cast<std::size_t>(k) >= nb_.size()) nb_.resize(static_cast<std::size_t>(k) + 1, -1);
+  }
+  slot_of_ = std::move(slot_of);
+  requests_pending_ = nn > 0;
+  remote_flag_.assign(nb_.size(), 0);
+}
+
+std::vector<std::vector<char>>& KeyedSums::start_messages() {
+  const std::size_t nn = request_.size();
+  send_.resize(nn);
+  for (std::size_t m = 0; m < nn; ++m) {
+    send_[m].clear();
+    if (!requests_pending_) continue;
+    // The request list: its length, then the global ids of our ghost slots this
+    // neighbour owns.
+    const auto count = static_cast<std::uint64_t>(request_[m].size());
+    append_records(send_[m], &count, 1);
+    for (std::int32_t k : request_[m]) append_records(send_[m], &gid_[static_cast<std::size_t>(k)], 1);
+  }
+  return send_;
+}
+
+std::vector<std::size_t> KeyedSums::receive_requests(const std::vector<std::vector<char>>& recv) {
+  SC_ASSERT(requests_pending_);
+  requests_pending_ = false;
+  std::vector<std::size_t> rest(recv.size(), 0);
+  std::vector<std::pair<gid_t, std::int32_t>> served;
+  for (std::size_t m = 0; m < recv.size(); ++m) {
+    std::uint64_t count = 0;
+    SC_ASSERT(recv[m].size() >= sizeof count);
+    std::memcpy(&count, recv[m].data(), sizeof count);
+    rest[m] = sizeof count + count * sizeof(gid_t);
+    SC_ASSERT(recv[m].size() >= rest[m]);
+    for (std::uint64_t i = 0; i < count; ++i) {
+      gid_t g;
+      std::memcpy(&g, recv[m].data() + sizeof count + i * sizeof g, sizeof g);
+      served_[m].push_back(slot_of_(g));
+      served.emplace_back(g, served_[m].back());
     }
   }
-  remote_flag_.assign(nb_.size(), 0);
+  std::sort(served.begin(), served.end());
+  served.erase(std::unique(served.begin(), served.end()), served.end());
+  for (const auto& [g, k] : served) {
+    served_gids_.push_back(g);
+    served_slots_.push_back(k);
+    // Slots the caller added for neighbours are owned ones.
+    if (static_cast<std::size_t>(k) >= nb_.size()) nb_.resize(static_cast<std::size_t>(k) + 1, -1);
+  }
+  remote_flag_.resize(nb_.size(), 0);
+  slot_of_ = nullptr;
+  return rest;
 }
 
 void KeyedSums::plan_local(std::size_t n) {
@@ -67,6 +95,8 @@ void KeyedSums::plan_local(std::size_t n) {
   served_.clear();
   served_gids_.clear();
   served_slots_.clear();
+  slot_of_ = nullptr;
+  requests_pending_ = false;
 }
 
 std::int32_t KeyedSums::served_slot(gid_t vertex) const {
@@ -76,10 +106,27 @@ std::int32_t KeyedSums::served_slot(gid_t vertex) const {
   return served_slots_[static_cast<std::size_t>(it - served_gids_.begin())];
 }
 
-void KeyedSums::receive(const std::vector<std::vector<char>>& recv) {
-  for (const std::vector<char>& bytes : recv) {
-    const std::vector<Record> in = read_records<Record>(bytes);
-    remote_.insert(remote_.end(), in.begin(), in.end());
+void KeyedSums::write_record(std::vector<char>& buf, gid_t vertex, const Key& key, const double* v, int dim) {
+  const gid_t ids[3] = {vertex, key.point, key.triangle};
+  append_records(buf, ids, 3);
+  append_records(buf, v, static_cast<std::size_t>(dim));
+}
+
+void KeyedSums::receive(const std::vector<std::vector<char>>& recv, int dim) {
+  std::vector<std::size_t> at(recv.size(), 0);
+  if (requests_pending_) at = receive_requests(recv);
+  const std::size_t bytes = 3 * sizeof(gid_t) + static_cast<std::size_t>(dim) * sizeof(double);
+  for (std::size_t m = 0; m < recv.size(); ++m) {
+    SC_ASSERT((recv[m].size() - at[m]) % bytes == 0);
+    for (std::size_t b = at[m]; b < recv[m].size(); b += bytes) {
+      Record r{};
+      gid_t ids[3];
+      std::memcpy(ids, recv[m].data() + b, sizeof ids);
+      std::memcpy(r.v, recv[m].data() + b + sizeof ids, static_cast<std::size_t>(dim) * sizeof(double));
+      r.vertex = ids[0];
+      r.key = Key{ids[1], ids[2]};
+      remote_.push_back(r);
+    }
   }
   for (const Record& r : remote_) remote_flag_[static_cast<std::size_t>(served_slot(r.vertex))] = 1;
 }

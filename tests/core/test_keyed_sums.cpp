@@ -39,6 +39,7 @@ public:
   }
   const std::vector<int>& neighbors() const override { return nbr_; }
   std::vector<std::vector<char>> exchange_bytes(const std::vector<std::vector<char>>& send) override {
+    ++exchanges_;
     for (std::size_t k = 0; k < nbr_.size(); ++k) s_.box[idx(rank_, nbr_[k])] = send[k];
     s_.sync.arrive_and_wait();
     std::vector<std::vector<char>> recv;
@@ -47,6 +48,7 @@ public:
     return recv;
   }
   int rank() const override { return rank_; }
+  int exchanges() const { return exchanges_; }
   int ranks() const override { return s_.ranks; }
   std::vector<std::vector<char>> gather_to_root(const std::vector<char>& mine) override {
     s_.box[idx(rank_, 0)] = mine;
@@ -78,6 +80,7 @@ private:
   Shared& s_;
   int rank_;
   std::vector<int> nbr_;
+  int exchanges_ = 0;
 };
 
 // A collision: its key and its contributions (vertex gid, value).
@@ -115,10 +118,12 @@ std::vector<TestCollision> make_collisions(unsigned seed) {
   return col;
 }
 
-// One rank's part: the collisions `mine` (sorted), vertices owned by gid % ranks.
+// One rank's part: the collisions `mine` (sorted), vertices owned by gid % ranks, sums of
+// `dim` components (component d of a contribution: its value d % 3 times 1 + d / 3).
 // Returns, per vertex gid this rank has a slot for, (sum, owned?).
-std::map<Gid, std::pair<std::array<double, 3>, bool>> run_rank(const std::vector<TestCollision>& mine,
-                                                                  NeighbourExchange* ex, int ranks) {
+using Sums = std::map<Gid, std::pair<std::array<double, KeyedSums::kMaxDim>, bool>>;
+Sums run_rank(const std::vector<TestCollision>& mine, NeighbourExchange* ex, int ranks, int dim = 3,
+              bool reduce = true) {
   const int me = ex ? ex->rank() : 0;
   std::vector<Gid> gid;
   std::map<Gid, std::int32_t> slot;
@@ -133,17 +138,57 @@ std::map<Gid, std::pair<std::array<double, 3>, bool>> run_rank(const std::vector
   for (Gid g : gid) owner.push_back(static_cast<int>(g % ranks) == me ? -1 : static_cast<int>(g % ranks));
   KeyedSums sums;
   sums.plan(ex, owner, gid, slot_of);
-  std::vector<std::array<double, 3>> total(sums.slots(), {0, 0, 0});
-  sums.reduce(
-      mine.size(), [&](std::size_t q) { return mine[q].key; }, 3,
-      [&](std::size_t q, auto&& f) {
-        for (const auto& a : mine[q].adds) f(slot.at(a.first), a.second.data());
-      },
-      [&](std::int32_t k) { return total[static_cast<std::size_t>(k)].data(); });
-  sums.reply(3, [&](std::int32_t k) { return total[static_cast<std::size_t>(k)].data(); });
-  std::map<Gid, std::pair<std::array<double, 3>, bool>> out;
-  for (std::size_t k = 0; k < gid.size(); ++k) out[gid[k]] = {total[k], sums.owned(k)};
+  // The neighbours' slots are added during the first exchange: the sums grow with them.
+  std::vector<std::array<double, KeyedSums::kMaxDim>> total;
+  auto at = [&](std::int32_t k) {
+    if (static_cast<std::size_t>(k) >= total.size()) total.resize(static_cast<std::size_t>(k) + 1, {});
+    return total[static_cast<std::size_t>(k)].data();
+  };
+  if (reduce)
+    sums.reduce(
+        mine.size(), [&](std::size_t q) { return mine[q].key; }, dim,
+        [&](std::size_t q, auto&& f) {
+          for (const auto& a : mine[q].adds) {
+            std::array<double, KeyedSums::kMaxDim> v{};
+            for (int d = 0; d < dim; ++d) v[static_cast<std::size_t>(d)] = a.second[d % 3] * (1 + d / 3);
+            f(slot.at(a.first), v.data());
+          }
+        },
+        at);
+  // Without a sum, the owners' values are their vertices' gids (component 0).
+  sums.reply(dim, [&](std::int32_t k) {
+    double* v = at(k);
+    if (!reduce && sums.owned(static_cast<std::size_t>(k))) v[0] = static_cast<double>(gid[static_cast<std::size_t>(k)]);
+    return v;
+  });
+  EXPECT_EQ(sums.slots(), gid.size());
+  Sums out;
+  for (std::size_t k = 0; k < gid.size(); ++k) {
+    at(static_cast<std::int32_t>(k));
+    out[gid[k]] = {total[k], sums.owned(k)};
+  }
   return out;
+}
+
+// Runs run_rank on `ranks` threads over the collisions dealt round-robin by key, so that
+// every vertex gets contributions from several ranks, interleaved in key order. Counts
+// the exchanges each rank makes.
+std::vector<Sums> run_ranks(const std::vector<TestCollision>& col, int ranks, int dim, bool reduce,
+                            std::vector<int>* exchanges = nullptr) {
+  std::vector<std::vector<TestCollision>> part(static_cast<std::size_t>(ranks));
+  for (std::size_t q = 0; q < col.size(); ++q) part[(q * 7 + q / 5) % static_cast<std::size_t>(ranks)].push_back(col[q]);
+  ThreadExchange::Shared shared(ranks);
+  std::vector<Sums> got(static_cast<std::size_t>(ranks));
+  if (exchanges) exchanges->assign(static_cast<std::size_t>(ranks), 0);
+  std::vector<std::thread> th;
+  for (int r = 0; r < ranks; ++r)
+    th.emplace_back([&, r] {
+      ThreadExchange ex(shared, r);
+      got[static_cast<std::size_t>(r)] = run_rank(part[static_cast<std::size_t>(r)], &ex, ranks, dim, reduce);
+      if (exchanges) (*exchanges)[static_cast<std::size_t>(r)] = ex.exchanges();
+    });
+  for (std::thread& t : th) t.join();
+  return got;
 }
 
 }  // namespace
@@ -174,29 +219,43 @@ TEST(KeyedSums, OneRankFoldsInKeyOrder) {
 
 TEST(KeyedSums, AnySplitOverRanksGivesTheOneRankSums) {
   const auto col = make_collisions(2);
-  const auto ref = run_rank(col, nullptr, 1);
-  for (int ranks : {2, 3, 4}) {
-    // Collisions dealt to ranks round-robin by key: every vertex gets contributions from
-    // several ranks, interleaved in key order.
-    std::vector<std::vector<TestCollision>> part(static_cast<std::size_t>(ranks));
-    for (std::size_t q = 0; q < col.size(); ++q) part[(q * 7 + q / 5) % static_cast<std::size_t>(ranks)].push_back(col[q]);
-    ThreadExchange::Shared shared(ranks);
-    std::vector<std::map<Gid, std::pair<std::array<double, 3>, bool>>> got(static_cast<std::size_t>(ranks));
-    std::vector<std::thread> th;
-    for (int r = 0; r < ranks; ++r)
-      th.emplace_back([&, r] {
-        ThreadExchange ex(shared, r);
-        got[static_cast<std::size_t>(r)] = run_rank(part[static_cast<std::size_t>(r)], &ex, ranks);
-      });
-    for (std::thread& t : th) t.join();
-    for (int r = 0; r < ranks; ++r)
-      for (const auto& [g, s] : got[static_cast<std::size_t>(r)]) {
-        // Owned slots hold the complete sums, ghost slots the owner's reply: bitwise the
-        // one-rank fold either way.
-        EXPECT_EQ(s.second, static_cast<int>(g % ranks) == r) << "ranks " << ranks << " rank " << r << " vertex " << g;
-        for (int d = 0; d < 3; ++d)
-          EXPECT_EQ(s.first[d], ref.at(g).first[d]) << "ranks " << ranks << " rank " << r << " vertex " << g;
+  for (int dim : {3, KeyedSums::kMaxDim}) {
+    const auto ref = run_rank(col, nullptr, 1, dim);
+    for (int ranks : {2, 3, 4}) {
+      std::vector<int> exchanges;
+      const std::vector<Sums> got = run_ranks(col, ranks, dim, true, &exchanges);
+      for (int r = 0; r < ranks; ++r) {
+        // The plan's requests travel with the sum: one exchange for the sum, one for the reply.
+        EXPECT_EQ(exchanges[static_cast<std::size_t>(r)], 2) << "ranks " << ranks << " rank " << r;
+        for (const auto& [g, s] : got[static_cast<std::size_t>(r)]) {
+          // Owned slots hold the complete sums, ghost slots the owner's reply: bitwise the
+          // one-rank fold either way.
+          EXPECT_EQ(s.second, static_cast<int>(g % ranks) == r) << "ranks " << ranks << " rank " << r << " vertex " << g;
+          for (int d = 0; d < dim; ++d)
+            EXPECT_EQ(s.first[static_cast<std::size_t>(d)], ref.at(g).first[static_cast<std::size_t>(d)])
+                << "dim " << dim << " ranks " << ranks << " rank " << r << " vertex " << g << " component " << d;
+        }
       }
+    }
+  }
+}
+
+// A step whose first exchange is a reply: the requests travel alone first, and every
+// ghost slot gets its owner's value.
+TEST(KeyedSums, AReplyWithoutASumStillServesEveryGhost) {
+  const auto col = make_collisions(3);
+  for (int ranks : {2, 3}) {
+    std::vector<int> exchanges;
+    const std::vector<Sums> got = run_ranks(col, ranks, 3, false, &exchanges);
+    for (int r = 0; r < ranks; ++r) {
+      EXPECT_EQ(exchanges[static_cast<std::size_t>(r)], 2) << "ranks " << ranks << " rank " << r;
+      int ghosts = 0;
+      for (const auto& [g, s] : got[static_cast<std::size_t>(r)]) {
+        EXPECT_EQ(s.first[0], static_cast<double>(g)) << "ranks " << ranks << " rank " << r << " vertex " << g;
+        ghosts += !s.second;
+      }
+      EXPECT_GT(ghosts, 0);
+    }
   }
 }
 
