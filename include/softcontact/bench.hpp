@@ -75,6 +75,7 @@ struct BenchResult {
   std::string omp_wait_policy;   ///< the OMP_WAIT_POLICY environment variable, or "default"
   /// Halo traffic: bytes received per timed step by one rank (max and mean over ranks).
   double halo_bytes_max = 0, halo_bytes_mean = 0;
+  double halo_rounds_max = 0;  // rounds of neighbour messages per step (Halo::rounds), max rank
   /// Load imbalance: max over ranks / mean of the compute seconds (forces, integration,
   /// detection, depth: the phases without communication) of the timed steps.
   double compute_imbalance = 1;

@@ -109,6 +109,8 @@ public:
   std::int64_t meshes_fetched() const { return meshes_fetched_; }
   /// Bytes this rank has received through its halos so far.
   std::int64_t bytes_received() const;
+  /// Rounds of messages through its halos so far (Halo::rounds).
+  std::int64_t rounds() const;
 
 private:
   bool stale(const World& w);
@@ -124,7 +126,8 @@ private:
   std::unique_ptr<Halo> halo_;
   std::int64_t rebuilds_ = 0;
   std::int64_t reach_tests_ = 0, boxes_received_ = 0, meshes_fetched_ = 0;
-  std::int64_t bytes_before_ = 0;    // of halos since replaced
+  std::int64_t bytes_before_ = 0;
+  std::int64_t rounds_before_ = 0;    // of halos since replaced
 };
 
 }  // namespace softcontact

@@ -11,7 +11,8 @@
 //    ghosts, which are also the ranks that hold this rank's objects as ghosts: "within
 //    reach" is symmetric). The contact response sends its per-vertex contributions this
 //    way, with the keys that let the owner add them in global collision order; PetscSF's
-//    reduce would add them in arrival order, which depends on the rank count.
+//    reduce would add them in arrival order, which depends on the rank count. One
+//    message per peer and direction: the receiver probes for its size (MPI_Mprobe).
 #include <mpi.h>
 
 #include <cstdint>
@@ -63,6 +64,9 @@ public:
 
   /// Bytes this rank has received since construction (broadcasts and exchanges).
   std::int64_t bytes_received() const { return bytes_received_; }
+  /// Rounds of messages with neighbours or peers since construction (each broadcast,
+  /// update and exchange with at least one of them): the waits a step's latency adds up.
+  std::int64_t rounds() const { return rounds_; }
 
 private:
   MPI_Comm comm_;
@@ -77,6 +81,7 @@ private:
   bool kept_valid_ = false;
   std::int64_t ghost_rows_ = 0;
   std::int64_t bytes_received_ = 0;
+  std::int64_t rounds_ = 0;
 };
 
 }  // namespace softcontact

@@ -166,6 +166,8 @@ public:
   std::int64_t ghost_boxes_received() const;
   /// Bytes this rank has received through the halo since construction.
   std::int64_t halo_bytes() const;
+  /// Rounds of neighbour messages this rank has waited on so far (GhostSet::rounds).
+  std::int64_t halo_rounds() const;
   /// Of what this rank sent, the split objects' exchanges since construction (states to
   /// parts, forces to owners) [bytes]; the tets it evaluates now for objects it does not
   /// own.

@@ -151,7 +151,7 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
 
   const double start = MPI_Wtime();
   double last_report = start, loop_start = start;
-  std::int64_t unused = 0, bytes0 = 0, split0 = 0, rebuilds0 = 0, tests0 = 0, boxes0 = 0, cross = 0, records = 0, edge_searches = 0, edge_pairs = 0;
+  std::int64_t unused = 0, bytes0 = 0, rounds0 = 0, split0 = 0, rebuilds0 = 0, tests0 = 0, boxes0 = 0, cross = 0, records = 0, edge_searches = 0, edge_pairs = 0;
   double compute = 0, compute_cpu = 0;
   for (std::int64_t k = 1; k <= total_steps; ++k) {
     const bool timed = k > opt.warmup;
@@ -159,6 +159,7 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
       MPI_Barrier(comm);
       sim.take_times(unused);  // drop the warm-up's accumulated times
       bytes0 = sim.halo_bytes();
+      rounds0 = sim.halo_rounds();
       split0 = sim.split_bytes_sent();
       rebuilds0 = sim.ghost_rebuilds();
       tests0 = sim.ghost_reach_tests();
@@ -216,6 +217,9 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
     MPI_Allreduce(MPI_IN_PLACE, &usum, 1, MPI_DOUBLE, MPI_SUM, comm);
     std::int64_t cr[2] = {cross, records};
     MPI_Allreduce(MPI_IN_PLACE, cr, 2, MPI_INT64_T, MPI_SUM, comm);
+    double rounds = static_cast<double>(sim.halo_rounds() - rounds0) / static_cast<double>(n);
+    MPI_Allreduce(MPI_IN_PLACE, &rounds, 1, MPI_DOUBLE, MPI_MAX, comm);
+    r.halo_rounds_max = rounds;
     r.halo_bytes_max = bmax;
     r.halo_bytes_mean = bsum / size;
     r.compute_imbalance = csum > 0 ? cmax / (csum / size) : 1;
@@ -344,7 +348,8 @@ void print_bench_table(std::ostream& out, const BenchResult& r) {
         << r.edge_pair_searches << " of " << r.steps.size() << " timed steps\n";
   if (r.ranks > 1)
     out << "  halo traffic per step and rank: max " << fixed(r.halo_bytes_max / 1024, 1) << " KiB, mean "
-        << fixed(r.halo_bytes_mean / 1024, 1) << " KiB; ghost-set tests " << r.ghost_tests << ", rebuilds "
+        << fixed(r.halo_bytes_mean / 1024, 1) << " KiB in " << fixed(r.halo_rounds_max, 2)
+        << " rounds of neighbour messages (max rank); ghost-set tests " << r.ghost_tests << ", rebuilds "
         << r.ghost_rebuilds << " (object boxes received per test: max " << fixed(r.ghost_boxes_max, 0) << " of "
         << r.objects << " objects)\n";
   if (r.ranks > 1 && r.split_objects > 0)
@@ -375,7 +380,7 @@ std::string bench_csv_header() {
       "collisions_max,total_ms_median,total_ms_mean";
   for (const PhaseColumn& p : kPhases) h += std::string(",") + p.column + "_ms_median," + p.column + "_ms_mean";
   h += ",steps_per_second,setup_s,rss_max_mib,rss_mean_mib,omp_wait_policy,halo_bytes_max,halo_bytes_mean,"
-       "compute_imbalance,cross_rank_fraction,ghost_rebuilds,cpu_imbalance,read_s";
+       "compute_imbalance,cross_rank_fraction,ghost_rebuilds,cpu_imbalance,read_s,halo_rounds_max";
   return h;
 }
 
@@ -392,7 +397,8 @@ std::string bench_csv_row(const BenchResult& r) {
   s << ',' << num(r.steps_per_second()) << ',' << num(r.setup_seconds) << ',' << num(r.rss_max_mib) << ','
     << num(r.rss_mean_mib) << ',' << csv_field(r.omp_wait_policy) << ',' << num(r.halo_bytes_max) << ','
     << num(r.halo_bytes_mean) << ',' << num(r.compute_imbalance) << ',' << num(r.cross_rank_fraction) << ','
-    << r.ghost_rebuilds << ',' << num(r.cpu_imbalance) << ',' << num(r.read_seconds);
+    << r.ghost_rebuilds << ',' << num(r.cpu_imbalance) << ',' << num(r.read_seconds) << ','
+    << num(r.halo_rounds_max);
   return s.str();
 }
 

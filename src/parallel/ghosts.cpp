@@ -63,13 +63,17 @@ GhostSet::~GhostSet() = default;
 NeighbourExchange* GhostSet::exchange() { return halo_.get(); }
 
 std::int64_t GhostSet::bytes_received() const { return bytes_before_ + (halo_ ? halo_->bytes_received() : 0); }
+std::int64_t GhostSet::rounds() const { return rounds_before_ + (halo_ ? halo_->rounds() : 0); }
 
 void GhostSet::update(double* xyz) {
   if (halo_) halo_->update(xyz);
 }
 
 void GhostSet::drop() {
-  if (halo_) bytes_before_ += halo_->bytes_received();
+  if (halo_) {
+    bytes_before_ += halo_->bytes_received();
+    rounds_before_ += halo_->rounds();
+  }
   halo_.reset();
 }
 
@@ -260,7 +264,10 @@ bool GhostSet::rebuild(World& w, bool force) {
   }
   const bool local_change = force || ghosts != w.ghost_objects;
   if (local_change) set_ghost_objects(w, scene_, ghosts);
-  if (halo_) bytes_before_ += halo_->bytes_received();
+  if (halo_) {
+    bytes_before_ += halo_->bytes_received();
+    rounds_before_ += halo_->rounds();
+  }
   halo_ = std::make_unique<Halo>(comm_, w);
   halo_->update(w.x.data());
   halo_->update(w.x_prev.data());

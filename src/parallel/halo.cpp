@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <limits>
 
 #include "softcontact/error.hpp"
 #include "softcontact/mpi_util.hpp"
@@ -14,7 +15,7 @@ namespace {
 void petsc_check(PetscErrorCode e, const char* what) {
   if (e != 0) throw RuntimeFailure(std::string("PETSc failed in ") + what + " (error " + std::to_string(e) + ")");
 }
-constexpr int kTagSize = 7101, kTagData = 7102, kTagChanged = 7104;
+constexpr int kTagData = 7102, kTagChanged = 7104;
 }  // namespace
 
 std::vector<index_t> owner_vertex_offsets(const World& w) {
@@ -100,6 +101,7 @@ void Halo::update(double* xyz) {
   petsc_check(PetscSFBcastBegin(sf, xyz_type_, xyz, xyz, MPI_REPLACE), "PetscSFBcastBegin");
   petsc_check(PetscSFBcastEnd(sf, xyz_type_, xyz, xyz, MPI_REPLACE), "PetscSFBcastEnd");
   bytes_received_ += ghost_rows_ * 3 * static_cast<std::int64_t>(sizeof(double));
+  if (!neighbors_.empty()) ++rounds_;
   kept_valid_ = false;
 }
 
@@ -117,6 +119,7 @@ void Halo::keep_sent(const double* xyz) {
 void Halo::update_changed(double* xyz) {
   if (!kept_valid_) throw RuntimeFailure("Halo::update_changed without the rows of the last update (keep_sent)");
   const std::size_t nn = neighbors_.size();
+  if (nn > 0) ++rounds_;
   std::vector<std::vector<char>> out(nn);
   std::vector<MPI_Request> req(nn);
   for (std::size_t k = 0; k < nn; ++k) {
@@ -169,28 +172,35 @@ std::vector<std::vector<char>> Halo::exchange_bytes(const std::vector<std::vecto
   return exchange_with(neighbors_, send);
 }
 
+// One message per peer and direction, of any size up to 2^31 - 1 bytes: each peer's
+// message is matched by a probe (MPI_Mprobe), so no separate round of sizes goes first.
+// Between two ranks the exchanges come in the same order on both sides, and MPI keeps
+// the order of messages of one tag between a pair, so each probe finds this exchange's.
 std::vector<std::vector<char>> Halo::exchange_with(const std::vector<int>& peers,
                                                    const std::vector<std::vector<char>>& send) {
   SC_ASSERT(send.size() == peers.size());
   const std::size_t nn = peers.size();
   std::vector<std::vector<char>> recv(nn);
   if (nn == 0) return recv;
-  std::vector<std::int64_t> out_size(nn), in_size(nn);
-  std::vector<MPI_Request> req(2 * nn);
+  ++rounds_;
+  std::vector<MPI_Request> req(nn);
   for (std::size_t k = 0; k < nn; ++k) {
-    out_size[k] = static_cast<std::int64_t>(send[k].size());
-    MPI_Irecv(&in_size[k], 1, MPI_INT64_T, peers[k], kTagSize, comm_, &req[k]);
-    MPI_Isend(&out_size[k], 1, MPI_INT64_T, peers[k], kTagSize, comm_, &req[nn + k]);
+    if (send[k].size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+      throw RuntimeFailure("Halo: a message of " + std::to_string(send[k].size()) + " bytes to rank " +
+                           std::to_string(peers[k]) + " is over MPI's 2^31 - 1 bytes per message");
+    MPI_Isend(send[k].data(), static_cast<int>(send[k].size()), MPI_BYTE, peers[k], kTagData, comm_, &req[k]);
   }
-  MPI_Waitall(static_cast<int>(2 * nn), req.data(), MPI_STATUSES_IGNORE);
   for (std::size_t k = 0; k < nn; ++k) {
-    recv[k].resize(static_cast<std::size_t>(in_size[k]));
-    bytes_received_ += in_size[k] + static_cast<std::int64_t>(sizeof(std::int64_t));
-    MPI_Irecv(recv[k].data(), static_cast<int>(in_size[k]), MPI_BYTE, peers[k], kTagData, comm_, &req[k]);
-    MPI_Isend(send[k].data(), static_cast<int>(send[k].size()), MPI_BYTE, peers[k], kTagData, comm_,
-              &req[nn + k]);
+    MPI_Message msg;
+    MPI_Status st;
+    MPI_Mprobe(peers[k], kTagData, comm_, &msg, &st);
+    int count = 0;
+    MPI_Get_count(&st, MPI_BYTE, &count);
+    recv[k].resize(static_cast<std::size_t>(count));
+    MPI_Mrecv(recv[k].data(), count, MPI_BYTE, &msg, MPI_STATUS_IGNORE);
+    bytes_received_ += count;
   }
-  MPI_Waitall(static_cast<int>(2 * nn), req.data(), MPI_STATUSES_IGNORE);
+  MPI_Waitall(static_cast<int>(nn), req.data(), MPI_STATUSES_IGNORE);
   return recv;
 }
 

@@ -268,6 +268,7 @@ void Simulator::trim_dropped() {
 }
 
 std::int64_t Simulator::halo_bytes() const { return ghosts_->bytes_received(); }
+std::int64_t Simulator::halo_rounds() const { return ghosts_->rounds(); }
 std::int64_t Simulator::split_bytes_sent() const {
   const SplitForces* s = core_ ? core_->split() : nullptr;
   return static_cast<std::int64_t>(sizeof(double)) * (split_doubles_before_ + (s ? s->doubles_sent() : 0));

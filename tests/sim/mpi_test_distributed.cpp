@@ -712,6 +712,31 @@ TEST(Distributed, SplitOwnerSendsPositionsOnlyToPartsWithoutTheGhost) {
   }
 }
 
+// The waits a step adds to a network's latency: a step that keeps its ghost set waits on
+// its neighbours 7 times, the two position updates of the halo and the contact
+// response's 5 exchanges (docs/architecture.md, "Parallel step"; 9 times before
+// 2026-11-29, and each exchange was then two messages: sizes, then bytes), and not at
+// all on a rank without neighbours.
+TEST(Distributed, AStepWaitsOnItsNeighboursSevenTimes) {
+  const int n = comm_size(MPI_COMM_WORLD);
+  if (n == 1) GTEST_SKIP() << "no neighbours on one rank";
+  Simulator sim(MPI_COMM_WORLD, pile());
+  ASSERT_EQ(sim.split_objects(), 0) << "a split object adds its exchanges: the count below assumes none";
+  std::int64_t counted = 0, with_neighbours = 0;
+  for (int s = 1; s <= kSteps; ++s) {
+    const std::int64_t rounds = sim.halo_rounds(), rebuilds = sim.ghost_rebuilds();
+    sim.step();
+    if (sim.ghost_rebuilds() != rebuilds) continue;  // a rebuild sends the whole rows again
+    const std::int64_t step_rounds = sim.halo_rounds() - rounds;
+    EXPECT_TRUE(step_rounds == 0 || step_rounds == 7) << "step " << s << ": " << step_rounds << " rounds";
+    ++counted;
+    with_neighbours += step_rounds == 7;
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &with_neighbours, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_GT(counted, kSteps / 2) << "most steps rebuilt the ghost set: the test proves little";
+  EXPECT_GT(with_neighbours, 0) << "no rank had neighbours: the test proves nothing";
+}
+
 TEST(Distributed, PileWithTwoThreadsPerRankIsBitwiseIdentical) {
   expect_identical(2, [](Simulator&, int) {});
 }
