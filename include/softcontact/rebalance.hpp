@@ -137,18 +137,28 @@ bool rebalance_due(const RebalancePolicy& policy, std::int64_t step);
 struct RebalanceHistory {
   bool measure_cross = false;  ///< a repartition since the last check: this check measures what it achieved
   double achieved_cross = 0;   ///< the cross-rank fraction of the current partition (0 before any)
+  /// The work imbalance at the last repartition when it moved no object (the partition
+  /// is what METIS makes of the weights as they were); 0 when it moved some, or before any.
+  double unmoved_imbalance = 0;
 };
 
 /// Margin by which the cross-rank fraction must exceed what the current partition
 /// achieved before it triggers a repartition again.
 inline constexpr double kCrossRetryMargin = 0.1;
 
+/// Margin by which the work imbalance must exceed the one at a repartition that moved no
+/// object before it triggers a repartition again.
+inline constexpr double kImbalanceRetryMargin = 0.1;
+
 /// The decision at a check, from the reduced figures (the same on every rank): the work
 /// imbalance (max / mean) above the policy's, or the cross-rank fraction above the
 /// policy's and above what the current partition achieved plus kCrossRetryMargin. A
 /// partition that cannot bring the fraction down (every body of a pile on one floor
 /// touches the floor's rank) is not redone for it at every check. The first check after
-/// a repartition records what it achieved (in `h`).
+/// a repartition records what it achieved (in `h`). Likewise the work imbalance, when
+/// the last repartition moved no object (three objects, one of them split, whose cost
+/// METIS cannot share out more evenly): it triggers again only above that repartition's
+/// imbalance plus kImbalanceRetryMargin.
 bool rebalance_wanted(const RebalancePolicy& policy, double imbalance, double cross, RebalanceHistory& h);
 
 /// At a step rebalance_due() names: when rebalance_wanted(), METIS partitions the current

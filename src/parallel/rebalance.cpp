@@ -370,7 +370,8 @@ bool rebalance_wanted(const RebalancePolicy& policy, double imbalance, double cr
     h.achieved_cross = cross;
     h.measure_cross = false;
   }
-  const bool by_work = imbalance > policy.max_imbalance;
+  const bool by_work = imbalance > policy.max_imbalance &&
+                       !(h.unmoved_imbalance > 0 && imbalance <= h.unmoved_imbalance + kImbalanceRetryMargin);
   const bool by_cross = cross > policy.max_cross_fraction && cross > h.achieved_cross + kCrossRetryMargin;
   return by_work || by_cross;
 }
@@ -405,6 +406,7 @@ bool rebalance(MPI_Comm comm, const Scene& scene, const World& w,
   keep_objects_in_place(scene, current, nranks, next, hosts);
   std::int64_t moved = 0;
   for (std::size_t k = 0; k < next.size(); ++k) moved += next[k] != current[k] ? 1 : 0;
+  history.unmoved_imbalance = moved == 0 ? imbalance : 0;
   if (comm_rank(comm) == 0)
     std::cerr << "softcontact: step " << step << ": repartitioning by " << (policy.measured_weights ? "measured cost" : "tets")
               << " (work imbalance " << imbalance

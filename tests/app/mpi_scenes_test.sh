@@ -79,15 +79,22 @@ done
 scenes=$here/../data/scenes
 sed 's/^  self_collisions: true/  self_collisions: true\n  edge_contacts: true/' "$scenes/ring_squeeze.yaml" > ring_edges.yaml
 grep -q '^  edge_contacts: true' ring_edges.yaml && ok || bad "ring_edges.yaml: edge_contacts not set"
-for scene in "$scenes/aligned_stack.yaml" ring_edges.yaml; do
+# ring_squeeze.yaml as it is (vertex records only) too: its ring holds 720 of the 864 tets,
+# so on 2 and 3 ranks it is split for its forces, and its points inside its own body are
+# found with the detection of a split object (docs/architecture.md, "Contact of a split
+# object"; delegated to the owner of the body, which is the ring's own).
+for scene in "$scenes/aligned_stack.yaml" ring_edges.yaml "$scenes/ring_squeeze.yaml"; do
   name=$(basename "$scene" .yaml)
   for np in 1 2 3; do
     for nt in 1 2; do
       [ "$np$nt" = 12 ] && continue
       dir=${name}_r${np}_t${nt}
-      expect 0 "on $np rank\(s\) x $nt thread\(s\)" -- "$mpiexec" --oversubscribe --bind-to none -n "$np" \
+      pattern="on $np rank\(s\) x $nt thread\(s\)"
+      [ "$name" != aligned_stack ] && [ "$np" -gt 1 ] && pattern="1 object\(s\) split for their forces over $np ranks"
+      expect 0 "$pattern" -- "$mpiexec" --oversubscribe --bind-to none -n "$np" \
         env OMP_NUM_THREADS="$nt" "$exe" run "$scene" --output-every 100 --output "$dir" --quiet
       if [ "$np$nt" = 11 ]; then
+        [ "$name" = ring_squeeze ] && continue  # vertex records only (its self-contact: cli.self_contact.ring_squeeze)
         awk -F, 'NR == 1 { for (i = 1; i <= NF; ++i) if ($i == "edge_contacts") c = i; next }
           $c + 0 > 0 { n++ } END { exit !(c && n > 0) }' "$dir/diagnostics.csv" && ok ||
           bad "$dir: no edge records in any diagnostics row"

@@ -171,6 +171,24 @@ TEST(Rebalance, CrossFractionThePartitionCouldNotLowerDoesNotTriggerAgain) {
   EXPECT_TRUE(rebalance_wanted(p, 1.26, 0.0, fresh));
 }
 
+// A repartition that moved no object leaves the partition METIS makes of the weights:
+// the work imbalance triggers again only when it has grown by kImbalanceRetryMargin
+// since (ring_squeeze.yaml on 2 ranks, a ring split over both and two plates, repartitioned
+// at 31 of its 38 checks, each moving nothing, before this rule).
+TEST(Rebalance, ImbalanceARepartitionThatMovedNothingLeftDoesNotTriggerAgain) {
+  RebalancePolicy p;  // 1.25, 0.5
+  RebalanceHistory h;
+  EXPECT_TRUE(rebalance_wanted(p, 1.27, 0.3, h)) << "above the policy's imbalance";
+  h.unmoved_imbalance = 1.27;  // (what rebalance() records when nothing moved)
+  EXPECT_FALSE(rebalance_wanted(p, 1.27, 0.3, h)) << "the same imbalance: the same partition again";
+  EXPECT_FALSE(rebalance_wanted(p, 1.36, 0.3, h)) << "1.36 is within the margin of 1.27";
+  EXPECT_TRUE(rebalance_wanted(p, 1.38, 0.3, h)) << "1.38 exceeds 1.27 by more than the margin";
+  EXPECT_TRUE(rebalance_wanted(p, 1.27, 0.95, h)) << "the cross-rank fraction still triggers on its own";
+  h.unmoved_imbalance = 0;  // the last repartition moved objects
+  EXPECT_TRUE(rebalance_wanted(p, 1.27, 0.3, h)) << "after one that moved objects, the policy's limit alone";
+  EXPECT_FALSE(rebalance_wanted(p, 1.20, 0.3, h)) << "under the policy's imbalance";
+}
+
 // Split candidates (split_forces.hpp) over a scene: objects of 500, 100, 100, 200 tets and
 // a kinematic one of 100 (1,000 tets in all). An object is a candidate when tets x ranks
 // > 1,000: the 500 from 3 ranks on (2 x 500 is not more), the 200 from 6; the 100s never
