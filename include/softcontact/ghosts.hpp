@@ -126,8 +126,7 @@ private:
   std::unique_ptr<Halo> halo_;
   std::int64_t rebuilds_ = 0;
   std::int64_t reach_tests_ = 0, boxes_received_ = 0, meshes_fetched_ = 0;
-  std::int64_t bytes_before_ = 0;
-  std::int64_t rounds_before_ = 0;    // of halos since replaced
+  std::int64_t bytes_before_ = 0, rounds_before_ = 0;  // of halos since replaced
 };
 
 }  // namespace softcontact

@@ -13,8 +13,8 @@
 // values of the vertices a neighbour asked for back into its ghost slots. Only the
 // transport (NeighbourExchange) knows about MPI.
 #include <algorithm>
-#include <cstring>
 #include <cstdint>
+#include <cstring>
 #include <functional>
 #include <utility>
 #include <vector>
