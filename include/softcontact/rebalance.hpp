@@ -20,7 +20,10 @@ namespace softcontact {
 /// When a run repartitions its objects (docs/architecture.md, "Migration").
 struct RebalancePolicy {
   std::int64_t check_every = 200;   ///< steps between checks (0: never)
-  double max_imbalance = 1.25;      ///< repartition when max/mean of the per-rank work passes this
+  /// Repartition when max/mean of the per-rank work passes this. Below 1 (which a scene
+  /// file cannot ask for: the tests' setting) every check repartitions, without the
+  /// margin after a repartition that moved nothing (rebalance_wanted).
+  double max_imbalance = 1.25;
   double max_cross_fraction = 0.5;  ///< ... or when this fraction of the collisions crosses ranks
   /// Node weights of the repartition: measured cost (measured_weights), or the static
   /// work alone (tets; what the initial partition uses).

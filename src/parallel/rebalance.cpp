@@ -370,8 +370,9 @@ bool rebalance_wanted(const RebalancePolicy& policy, double imbalance, double cr
     h.achieved_cross = cross;
     h.measure_cross = false;
   }
-  const bool by_work = imbalance > policy.max_imbalance &&
-                       !(h.unmoved_imbalance > 0 && imbalance <= h.unmoved_imbalance + kImbalanceRetryMargin);
+  const bool stuck = policy.max_imbalance >= 1 && h.unmoved_imbalance > 0 &&
+                     imbalance <= h.unmoved_imbalance + kImbalanceRetryMargin;
+  const bool by_work = imbalance > policy.max_imbalance && !stuck;
   const bool by_cross = cross > policy.max_cross_fraction && cross > h.achieved_cross + kCrossRetryMargin;
   return by_work || by_cross;
 }

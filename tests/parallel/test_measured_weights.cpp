@@ -187,6 +187,11 @@ TEST(Rebalance, ImbalanceARepartitionThatMovedNothingLeftDoesNotTriggerAgain) {
   h.unmoved_imbalance = 0;  // the last repartition moved objects
   EXPECT_TRUE(rebalance_wanted(p, 1.27, 0.3, h)) << "after one that moved objects, the policy's limit alone";
   EXPECT_FALSE(rebalance_wanted(p, 1.20, 0.3, h)) << "under the policy's imbalance";
+  // A limit below 1 (the tests' "at every check") knows no margin.
+  RebalancePolicy always{25, 0.0, 0.0};
+  RebalanceHistory after_nothing;
+  after_nothing.unmoved_imbalance = 1.02;
+  EXPECT_TRUE(rebalance_wanted(always, 1.03, 0.0, after_nothing));
 }
 
 // Split candidates (split_forces.hpp) over a scene: objects of 500, 100, 100, 200 tets and
