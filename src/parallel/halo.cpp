@@ -16,6 +16,19 @@ void petsc_check(PetscErrorCode e, const char* what) {
   if (e != 0) throw RuntimeFailure(std::string("PETSc failed in ") + what + " (error " + std::to_string(e) + ")");
 }
 constexpr int kTagData = 7102, kTagChanged = 7104;
+
+// The next message from `peer` with `tag`, of whatever size (MPI_Mprobe), into `into`;
+// returns its bytes.
+int receive_probed(MPI_Comm comm, int peer, int tag, std::vector<char>& into) {
+  MPI_Message msg;
+  MPI_Status st;
+  MPI_Mprobe(peer, tag, comm, &msg, &st);
+  int count = 0;
+  MPI_Get_count(&st, MPI_BYTE, &count);
+  into.resize(static_cast<std::size_t>(count));
+  MPI_Mrecv(into.data(), count, MPI_BYTE, &msg, MPI_STATUS_IGNORE);
+  return count;
+}
 }  // namespace
 
 std::vector<index_t> owner_vertex_offsets(const World& w) {
@@ -140,13 +153,7 @@ void Halo::update_changed(double* xyz) {
   }
   std::vector<char> in;
   for (std::size_t k = 0; k < nn; ++k) {
-    MPI_Message msg;
-    MPI_Status st;
-    MPI_Mprobe(neighbors_[k], kTagChanged, comm_, &msg, &st);
-    int count = 0;
-    MPI_Get_count(&st, MPI_BYTE, &count);
-    in.resize(static_cast<std::size_t>(count));
-    MPI_Mrecv(in.data(), count, MPI_BYTE, &msg, MPI_STATUS_IGNORE);
+    const int count = receive_probed(comm_, neighbors_[k], kTagChanged, in);
     bytes_received_ += count;
     const std::vector<index_t>& rows = recv_rows_[k];
     const std::size_t mask_bytes = 8 * ((rows.size() + 63) / 64);
@@ -190,16 +197,7 @@ std::vector<std::vector<char>> Halo::exchange_with(const std::vector<int>& peers
                            std::to_string(peers[k]) + " is over MPI's 2^31 - 1 bytes per message");
     MPI_Isend(send[k].data(), static_cast<int>(send[k].size()), MPI_BYTE, peers[k], kTagData, comm_, &req[k]);
   }
-  for (std::size_t k = 0; k < nn; ++k) {
-    MPI_Message msg;
-    MPI_Status st;
-    MPI_Mprobe(peers[k], kTagData, comm_, &msg, &st);
-    int count = 0;
-    MPI_Get_count(&st, MPI_BYTE, &count);
-    recv[k].resize(static_cast<std::size_t>(count));
-    MPI_Mrecv(recv[k].data(), count, MPI_BYTE, &msg, MPI_STATUS_IGNORE);
-    bytes_received_ += count;
-  }
+  for (std::size_t k = 0; k < nn; ++k) bytes_received_ += receive_probed(comm_, peers[k], kTagData, recv[k]);
   MPI_Waitall(static_cast<int>(nn), req.data(), MPI_STATUSES_IGNORE);
   return recv;
 }
