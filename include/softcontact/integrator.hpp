@@ -30,7 +30,9 @@ void unconstrained_step(World& w, const Simulation& sim, const std::vector<doubl
 
 /// Prescribed motion (scene key `motion`): moves the fixed owned vertices of every object
 /// with a motion by velocity x (the part of [t0, t1] inside its [start, stop]) and sets
-/// their velocity to that displacement / (t1 - t0). Called after the unconstrained step,
+/// their velocity to that displacement / (t1 - t0), and to 0 outside [start, stop]. It
+/// reads the motions of the owned objects only (World::owned_motion), never the whole
+/// scene's. Called after the unconstrained step,
 /// before collision detection, so that moving anchors push and drag (friction) what they
 /// touch; fixed vertices of objects without a motion stay where they are.
 void prescribed_motion(World& w, double t0, double t1);

@@ -31,10 +31,13 @@ struct World {
   // ---- global, identical on every rank
   std::vector<ObjectLayout> layout;     ///< per object
   gid_t global_vertices = 0, global_tets = 0, global_triangles = 0;
-  std::vector<Motion> motion;           ///< per object: prescribed motion of its fixed vertices
 
   // ---- rank-local
   std::vector<int> owned_objects;       ///< ascending object indices owned by this rank
+  /// Per owned object (owned_objects' order): the prescribed motion of its fixed vertices.
+  /// Only the owned objects' (a step moves only owned vertices): a table of the whole
+  /// scene's would be 40 bytes per object on every rank, and scanned every step.
+  std::vector<Motion> owned_motion;
   std::vector<int> ghost_objects;       ///< ascending object indices held as ghosts
   std::vector<index_t> vertex_offset;   ///< per object: local index of its first vertex, -1 if absent
   std::size_t n_owned = 0;              ///< vertices [0, n_owned) are owned

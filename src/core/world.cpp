@@ -74,11 +74,9 @@ World build_world(const Scene& scene, const std::vector<int>& object_rank, int r
   w.rank = rank;
   const std::size_t no = scene.objects.size();
   w.layout.resize(no);
-  w.motion.resize(no);
   w.vertex_offset.assign(no, -1);
   for (std::size_t k = 0; k < no; ++k) {
     const ObjectShape& m = scene.shape(k);
-    w.motion[k] = scene.objects[k].motion();
     ObjectLayout& L = w.layout[k];
     L.vertex_begin = w.global_vertices;
     L.vertex_count = static_cast<gid_t>(m.vertices);
@@ -92,7 +90,10 @@ World build_world(const Scene& scene, const std::vector<int>& object_rank, int r
     w.global_triangles += L.triangle_count;
     if (L.rank == rank) w.owned_objects.push_back(static_cast<int>(k));
   }
-  for (int k : w.owned_objects) append_object(w, scene, k);
+  for (int k : w.owned_objects) {
+    append_object(w, scene, k);
+    w.owned_motion.push_back(scene.objects[static_cast<std::size_t>(k)].motion());
+  }
   w.n_owned = w.vertex_gid.size();
   w.m_owned = w.tet_gid.size();
   w.s_owned = w.triangle_gid.size();

@@ -57,20 +57,28 @@ void unconstrained_step(World& w, const Simulation& sim, const std::vector<doubl
 }
 
 void prescribed_motion(World& w, double t0, double t1) {
-  bool any = false;
-  for (const Motion& m : w.motion) any = any || (m.moves() && m.active_time(t0, t1) > 0);
-  if (!any) return;
-  const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(w.n_owned);
+  // Object by object: owned vertices are stored object by object in owned_objects'
+  // order, so only the owned objects are looked at, never the whole scene's.
+  SC_ASSERT(w.owned_motion.size() == w.owned_objects.size());
   const double inv_dt = 1.0 / (t1 - t0);
-#pragma omp parallel for schedule(static) if (n >= kParallelVertices)
-  for (std::ptrdiff_t i = 0; i < n; ++i) {
-    if (w.inv_mass[i] != 0) continue;
-    const Motion& m = w.motion[static_cast<std::size_t>(w.vertex_object[i])];
+  for (std::size_t j = 0; j < w.owned_objects.size(); ++j) {
+    const Motion& m = w.owned_motion[j];
+    if (!m.moves()) continue;
     const double s = m.active_time(t0, t1);
-    for (int d = 0; d < 3; ++d) {
-      const double u = m.velocity[d] * s;
-      w.x[3 * i + d] += u;
-      w.v[3 * i + d] = u * inv_dt;
+    const bool active = s > 0;
+    const auto k = static_cast<std::size_t>(w.owned_objects[j]);
+    const std::ptrdiff_t b = static_cast<std::ptrdiff_t>(w.vertex_offset[k]);
+    const std::ptrdiff_t e = b + static_cast<std::ptrdiff_t>(w.layout[k].vertex_count);
+    const double u[3] = {m.velocity[0] * s, m.velocity[1] * s, m.velocity[2] * s};
+    // Outside [start, stop] the anchors stand still: velocity 0 (symplectic Euler would
+    // otherwise keep the last step's; Verlet has just set 0).
+#pragma omp parallel for schedule(static) if (e - b >= kParallelVertices)
+    for (std::ptrdiff_t i = b; i < e; ++i) {
+      if (w.inv_mass[i] != 0) continue;
+      for (int d = 0; d < 3; ++d) {
+        if (active) w.x[3 * i + d] += u[d];
+        w.v[3 * i + d] = active ? u[d] * inv_dt : 0.0;
+      }
     }
   }
 }

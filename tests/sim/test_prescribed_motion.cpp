@@ -7,6 +7,8 @@
 
 #include "../contact/contact_scenes.hpp"
 #include "softcontact/error.hpp"
+#include "softcontact/integrator.hpp"
+#include "softcontact/world.hpp"
 
 using namespace softcontact;
 using namespace softcontact::test;
@@ -24,9 +26,13 @@ materials:
 // A kinematic box moving at 0.1 m/s from t = 0.02 s to t = 0.07 s, dt = 1 ms: before the
 // start it stands still; afterwards every vertex has moved by exactly 0.1 * 0.05 = 5 mm
 // (to 1e-12 m: only rounding of the per-step sums); its velocity is 0.1 m/s during the
-// motion and 0 after.
-TEST(PrescribedMotion, KinematicBoxMovesExactlyByVelocityTimesActiveTime) {
-  auto r = make_run(std::string("simulation:\n  dt: 0.001\n  steps: 100\n  gravity: [0, 0, 0]\n") + kMaterials + R"(
+// motion and exactly 0 after, with either explicit integrator (symplectic Euler leaves a
+// kinematic vertex's velocity alone, so only the motion can set it back to 0).
+class PrescribedMotionIntegrator : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(PrescribedMotionIntegrator, KinematicBoxMovesExactlyByVelocityTimesActiveTime) {
+  auto r = make_run(std::string("simulation:\n  dt: 0.001\n  steps: 100\n  gravity: [0, 0, 0]\n  integrator: ") +
+                    GetParam() + "\n" + kMaterials + R"(
 objects:
   - name: anchor
     material: steel
@@ -47,6 +53,47 @@ objects:
     EXPECT_EQ(w.x[3 * i + 1], x0[3 * i + 1]);
     EXPECT_EQ(w.x[3 * i + 2], x0[3 * i + 2]);
     EXPECT_EQ(w.v[3 * i], 0.0);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(PrescribedMotion, PrescribedMotionIntegrator, ::testing::Values("verlet", "symplectic_euler"));
+
+// Each rank keeps the motions of its own objects only (World::owned_motion), in
+// owned_objects' order, and moves only their fixed vertices: three kinematic plates, the
+// middle one moving, split over two "ranks" by hand (block_partition), each World alone.
+TEST(PrescribedMotion, EachWorldKeepsAndMovesOnlyItsOwnObjectsMotions) {
+  auto r = make_run(std::string("simulation:\n  dt: 0.001\n  steps: 10\n  gravity: [0, 0, 0]\n") + kMaterials + R"(
+objects:
+  - name: a
+    material: steel
+    primitive: {type: box, size: [0.1, 0.1, 0.02], cells: [2, 2, 1]}
+    kinematic: true
+  - name: b
+    material: steel
+    primitive: {type: box, size: [0.1, 0.1, 0.02], cells: [2, 2, 1]}
+    transform: {translate: [0.2, 0, 0]}
+    kinematic: true
+    motion: {velocity: [0, 0, 0.5], start: 0, stop: 1}
+  - name: c
+    material: steel
+    primitive: {type: box, size: [0.1, 0.1, 0.02], cells: [2, 2, 1]}
+    transform: {translate: [0.4, 0, 0]}
+    kinematic: true
+)");
+  const Scene& scene = r->scene;
+  const std::vector<int> part = {0, 0, 1};
+  for (int rank = 0; rank < 2; ++rank) {
+    World w = build_world(scene, part, rank);
+    ASSERT_EQ(w.owned_motion.size(), w.owned_objects.size());
+    for (std::size_t j = 0; j < w.owned_objects.size(); ++j)
+      EXPECT_EQ(w.owned_motion[j].velocity[2], w.owned_objects[j] == 1 ? 0.5 : 0.0);
+    const std::vector<double> x0 = w.x;
+    prescribed_motion(w, 0.0, 0.002);
+    for (std::size_t i = 0; i < w.n_owned; ++i) {
+      const double dz = w.vertex_object[i] == 1 ? 0.001 : 0.0;  // 0.5 m/s x 2 ms
+      EXPECT_NEAR(w.x[3 * i + 2] - x0[3 * i + 2], dz, 1e-15) << "rank " << rank << " vertex " << i;
+      EXPECT_NEAR(w.v[3 * i + 2], dz / 0.002, 1e-12);
+    }
   }
 }
 
