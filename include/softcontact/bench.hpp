@@ -27,6 +27,9 @@ struct BenchOptions {
   /// Wall seconds this rank spent reading the scene (load_scene) before run_bench, from a
   /// barrier: reported as the max over ranks (0: not measured).
   double read_seconds = 0;
+  /// The C heap in use on this rank before and after reading the scene [bytes]
+  /// (heap_in_use_bytes; -1: not measured), reported as the max over ranks.
+  double heap_before_read = -1, heap_after_read = -1;
 };
 
 /// One timed step.
@@ -49,6 +52,7 @@ struct BenchStep {
 struct SetupStage {
   std::string name;
   double max_seconds = 0, min_seconds = 0;
+  double max_heap_bytes = -1, min_heap_bytes = -1;  ///< the C heap in use at its end, max and min over ranks (-1: unknown)
 };
 
 /// Median and mean over the timed steps of one quantity.
@@ -72,6 +76,11 @@ struct BenchResult {
   std::vector<SetupStage> setup_stages;
   double loop_seconds = 0;       ///< wall time of the timed steps, barrier to barrier
   double rss_max_mib = 0, rss_mean_mib = 0;  ///< peak resident memory per rank (ru_maxrss)
+  /// The C heap in use (heap_in_use_bytes) before and after reading the scene, max over
+  /// ranks [bytes] (-1: not measured); after each set-up stage: setup_stages.
+  double heap_before_read_max = -1, heap_after_read_max = -1;
+  /// The heap in use when the set-up ended (its last stage's, max over ranks) [bytes].
+  double heap_setup_max() const { return setup_stages.empty() ? -1 : setup_stages.back().max_heap_bytes; }
   std::string omp_wait_policy;   ///< the OMP_WAIT_POLICY environment variable, or "default"
   /// Halo traffic: bytes received per timed step by one rank (max and mean over ranks).
   double halo_bytes_max = 0, halo_bytes_mean = 0;

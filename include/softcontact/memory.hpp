@@ -51,6 +51,11 @@ void check_memory_fits(MPI_Comm comm, const MemoryEstimate& e, const std::string
 double peak_rss_bytes();
 /// The process's current and peak virtual size [bytes] (VmSize, VmPeak).
 double virtual_size_bytes();
+/// Bytes the C heap has handed out and not taken back, all arenas (glibc's mallinfo2:
+/// blocks in use plus mmapped ones); -1 where the C library cannot tell. Unlike the
+/// resident size it counts neither freed blocks the heap keeps nor MPI's shared segments,
+/// so a difference between two calls is what the code between them still holds.
+double heap_in_use_bytes();
 
 /// "1.23 GiB", "456 MiB".
 std::string format_bytes(double bytes);

@@ -105,6 +105,9 @@ public:
   /// The construction's stages, in order, with this rank's wall seconds in each (waits
   /// at the collectives inside a stage included): where the set-up time goes.
   const std::vector<std::pair<const char*, double>>& setup_stages() const { return setup_stages_; }
+  /// The C heap in use on this rank at the end of each set-up stage [bytes]
+  /// (heap_in_use_bytes, -1 where unknown), in setup_stages' order.
+  const std::vector<double>& setup_heap() const { return setup_heap_; }
 
   /// Collisions already present at the initial positions (objects that start
   /// overlapping): the first step pushes them apart at (depth / dt).
@@ -195,6 +198,7 @@ public:
 
 private:
   std::vector<std::pair<const char*, double>> setup_stages_;
+  std::vector<double> setup_heap_;
   // The phases of step(), in order.
   void forces_phase();
   void unconstrained_motion();

@@ -275,13 +275,22 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
   MPI_Allreduce(MPI_IN_PLACE, &files[1], 1, MPI_INT64_T, MPI_SUM, comm);
   r.files_read_max = files[0];
   r.files_read_sum = files[1];
-  std::vector<double> stage_max, stage_min;  // the same stages on every rank, in the same order
+  // The same stages on every rank, in the same order: their seconds, then the heap at
+  // their ends and before and after the scene was read; max and min over the ranks.
+  const std::size_t ns = sim.setup_stages().size();
+  std::vector<double> stage_max, stage_min;
   for (const auto& st : sim.setup_stages()) stage_max.push_back(st.second);
+  stage_max.insert(stage_max.end(), sim.setup_heap().begin(), sim.setup_heap().end());
+  stage_max.push_back(opt.heap_before_read);
+  stage_max.push_back(opt.heap_after_read);
   stage_min = stage_max;
   MPI_Allreduce(MPI_IN_PLACE, stage_max.data(), static_cast<int>(stage_max.size()), MPI_DOUBLE, MPI_MAX, comm);
   MPI_Allreduce(MPI_IN_PLACE, stage_min.data(), static_cast<int>(stage_min.size()), MPI_DOUBLE, MPI_MIN, comm);
-  for (std::size_t i = 0; i < stage_max.size(); ++i)
-    r.setup_stages.push_back({sim.setup_stages()[i].first, stage_max[i], stage_min[i]});
+  for (std::size_t i = 0; i < ns; ++i)
+    r.setup_stages.push_back(
+        {sim.setup_stages()[i].first, stage_max[i], stage_min[i], stage_max[ns + i], stage_min[ns + i]});
+  r.heap_before_read_max = stage_max[2 * ns];
+  r.heap_after_read_max = stage_max[2 * ns + 1];
   const double rss = peak_rss_mib();
   double rss_max = rss, rss_sum = rss;
   MPI_Allreduce(MPI_IN_PLACE, &rss_max, 1, MPI_DOUBLE, MPI_MAX, comm);
@@ -321,6 +330,21 @@ void print_bench_table(std::ostream& out, const BenchResult& r) {
     const SetupStage& st = r.setup_stages[i];
     out << (i ? ", " : " ") << st.name << " " << fixed(1e3 * st.max_seconds, 1);
     if (r.ranks > 1) out << " / " << fixed(1e3 * st.min_seconds, 1);
+  }
+  if (r.heap_setup_max() >= 0) {
+    // What each rank's heap holds (max over ranks), not its resident size: the figure to
+    // compare between rank counts for what every rank keeps of the whole scene.
+    constexpr double kMiB = 1024.0 * 1024.0;
+    out << "\n  heap in use (MiB, max over ranks):";
+    if (r.heap_after_read_max >= 0)
+      out << " before the scene " << fixed(r.heap_before_read_max / kMiB, 2) << ", after reading it "
+          << fixed(r.heap_after_read_max / kMiB, 2) << ";";
+    out << " after each stage" << (r.ranks > 1 ? " (max / min)" : "");
+    for (std::size_t i = 0; i < r.setup_stages.size(); ++i) {
+      const SetupStage& st = r.setup_stages[i];
+      out << (i ? ", " : " ") << st.name << " " << fixed(st.max_heap_bytes / kMiB, 2);
+      if (r.ranks > 1) out << " / " << fixed(st.min_heap_bytes / kMiB, 2);
+    }
   }
   out << "\n"
       << "  colliding points per step: median " << num(r.collisions.median, 7) << ", mean "
@@ -380,7 +404,8 @@ std::string bench_csv_header() {
       "collisions_max,total_ms_median,total_ms_mean";
   for (const PhaseColumn& p : kPhases) h += std::string(",") + p.column + "_ms_median," + p.column + "_ms_mean";
   h += ",steps_per_second,setup_s,rss_max_mib,rss_mean_mib,omp_wait_policy,halo_bytes_max,halo_bytes_mean,"
-       "compute_imbalance,cross_rank_fraction,ghost_rebuilds,cpu_imbalance,read_s,halo_rounds_max";
+       "compute_imbalance,cross_rank_fraction,ghost_rebuilds,cpu_imbalance,read_s,halo_rounds_max,heap_read_mib,"
+       "heap_setup_mib";
   return h;
 }
 
@@ -399,6 +424,9 @@ std::string bench_csv_row(const BenchResult& r) {
     << num(r.halo_bytes_mean) << ',' << num(r.compute_imbalance) << ',' << num(r.cross_rank_fraction) << ','
     << r.ghost_rebuilds << ',' << num(r.cpu_imbalance) << ',' << num(r.read_seconds) << ','
     << num(r.halo_rounds_max);
+  // The heap figures are left empty where the C library cannot tell them.
+  auto mib = [](double bytes) { return bytes < 0 ? std::string() : num(bytes / (1024.0 * 1024.0)); };
+  s << ',' << mib(r.heap_after_read_max) << ',' << mib(r.heap_setup_max());
   return s.str();
 }
 

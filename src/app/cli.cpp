@@ -490,8 +490,10 @@ int cmd_bench(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err
   if (a.values.count("--per-step") && per_step.empty()) usage_error("--per-step expects a file name", "bench");
   MPI_Barrier(comm);
   const double t0 = MPI_Wtime();
+  opt.heap_before_read = heap_in_use_bytes();
   const Scene s = load_scene(scene_argument(a, "bench"), copies_made_on_demand(comm));
   opt.read_seconds = MPI_Wtime() - t0;
+  opt.heap_after_read = heap_in_use_bytes();
   const int rank = comm_rank(comm);
   if (rank == 0) print_warnings(s, err);
   BenchFiles files(comm, csv, per_step);

@@ -1,5 +1,6 @@
 #include "softcontact/memory.hpp"
 
+#include <malloc.h>
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -141,6 +142,15 @@ double peak_rss_bytes() {
 }
 
 double virtual_size_bytes() { return status_field("VmSize"); }
+
+double heap_in_use_bytes() {
+#if defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 33))
+  const struct mallinfo2 m = mallinfo2();
+  return static_cast<double>(m.uordblks + m.hblkhd);
+#else
+  return -1;
+#endif
+}
 
 std::string format_bytes(double bytes) {
   char buf[64];

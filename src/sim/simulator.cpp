@@ -22,6 +22,7 @@
 #include "softcontact/ghosts.hpp"
 #include "softcontact/mpi_util.hpp"
 #include "softcontact/implicit_euler.hpp"
+#include "softcontact/memory.hpp"
 #include "softcontact/mesh_io.hpp"
 #include "softcontact/motion.hpp"
 #include "softcontact/partition.hpp"
@@ -37,6 +38,7 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
   auto stage = [&](const char* name) {  // closes the stage that ends here
     const double now = MPI_Wtime();
     setup_stages_.emplace_back(name, now - t);
+    setup_heap_.push_back(heap_in_use_bytes());
     t = now;
   };
   rebalance_ = rebalance_policy(scene.sim);
