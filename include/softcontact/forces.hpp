@@ -95,7 +95,18 @@ public:
   /// Precomputes the rest state from `world` as built by build_world (World::x holds the
   /// rest positions): Dm^-1 and volume per tet, inverse spring rest lengths, the vertex -> (tet,
   /// corner) incidence, the segments.
-  ElasticForces(const Scene& scene, const World& world);
+  ///
+  /// `held_elsewhere`: owned objects whose internal forces another component computes
+  /// from the start (objects split over ranks, split_forces.hpp). Their tets get no rest
+  /// data here (the whole object's would be its size again on the owner, for nothing),
+  /// add_forces leaves their vertices alone, as after exclude_objects, and measure()
+  /// computes their energy from their rest mesh on the fly, to the bit what it would be
+  /// with their rest data held. Local tet indices (segments, tet_forces, the stiffness)
+  /// then count only the tets held.
+  ElasticForces(const Scene& scene, const World& world, std::vector<int> held_elsewhere = {});
+
+  /// Tets whose rest data this holds.
+  std::size_t held_tets() const { return volume_.size(); }
 
   /// f (n_local,3) [N] += internal forces -dU/dx at World::x. With `damping`, also the
   /// Rayleigh damping at World::v: -alpha m v on movable vertices and the models'
@@ -117,7 +128,9 @@ public:
 
   /// Objects whose internal forces another component computes (objects split over ranks,
   /// split_forces.hpp): add_forces skips their tets and their vertices from now on (an
-  /// empty list restores them). measure() and the stiffness still cover them.
+  /// empty list restores them). measure() and the stiffness still cover them. The list
+  /// must hold every object built without rest data (held_elsewhere): a RuntimeFailure
+  /// otherwise, never an object left without forces.
   void exclude_objects(const World& w, const std::vector<int>& objects);
 
   /// After compute_tet_forces: the corner forces of local vertex i, appended to `out` in
@@ -158,6 +171,8 @@ public:
 
 private:
   std::vector<Segment> segments_;
+  const Scene* scene_ = nullptr;
+  std::vector<int> held_elsewhere_;       ///< ascending: owned objects without rest data here
   std::vector<std::int32_t> tet_segment_;  ///< (m_local)
   // Rest data, structure of arrays (one array per component) so that the per-tet
   // kernels load consecutive tets with vector loads.

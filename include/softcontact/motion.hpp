@@ -19,8 +19,10 @@ class SplitForces;
 
 class UnconstrainedMotion {
 public:
-  /// The models' rest shapes from w.x (the scene's initial positions).
-  UnconstrainedMotion(const Scene& scene, const World& w);
+  /// The models' rest shapes from w.x (the scene's initial positions), but for the owned
+  /// objects split over ranks (`split_owned`, whose forces SplitForces computes:
+  /// ElasticForces' held_elsewhere).
+  UnconstrainedMotion(const Scene& scene, const World& w, std::vector<int> split_owned = {});
   ~UnconstrainedMotion();
   UnconstrainedMotion(const UnconstrainedMotion&) = delete;
   UnconstrainedMotion& operator=(const UnconstrainedMotion&) = delete;

@@ -52,8 +52,10 @@ class SerialStepper {
 public:
   /// The models' rest shapes and the contact response for `world`, whose World::x holds
   /// the scene's initial positions here. The detector comes with make_detector(), once
-  /// the World's ghost set is final. `world` must outlive the stepper.
-  SerialStepper(const Scene& scene, World& world, const CollisionSettings& settings);
+  /// the World's ghost set is final. `world` must outlive the stepper. `split_owned`: the
+  /// owned objects that will be split over ranks (set_split must then name each of them):
+  /// no rest data of theirs is built here.
+  SerialStepper(const Scene& scene, World& world, const CollisionSettings& settings, std::vector<int> split_owned = {});
   ~SerialStepper();
   SerialStepper(const SerialStepper&) = delete;
   SerialStepper& operator=(const SerialStepper&) = delete;

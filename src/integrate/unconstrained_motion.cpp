@@ -7,8 +7,8 @@
 
 namespace softcontact {
 
-UnconstrainedMotion::UnconstrainedMotion(const Scene& scene, const World& w)
-    : scene_(scene), elastic_(std::make_unique<ElasticForces>(scene, w)) {
+UnconstrainedMotion::UnconstrainedMotion(const Scene& scene, const World& w, std::vector<int> split_owned)
+    : scene_(scene), elastic_(std::make_unique<ElasticForces>(scene, w, std::move(split_owned))) {
   if (scene.sim.integrator == IntegratorKind::implicit_euler)
     implicit_ = std::make_unique<ImplicitEuler>(scene, w, *elastic_);
 }

@@ -10,6 +10,8 @@
 
 #include "softcontact/forces.hpp"
 #include "softcontact/error.hpp"
+#include "softcontact/mesh.hpp"
+#include "softcontact/scene.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -42,11 +44,61 @@ constexpr std::size_t kFusedTets = 4096;
 
 LawParams params_of(const ElasticForces::Segment& s) { return {{s.lambda, s.mu}, s.young, s.beta}; }
 
+/// Object `obj`'s segment fields from its material (begin, end, owned and padded_begin
+/// are the caller's).
+ElasticForces::Segment segment_for(const Scene& scene, int obj) {
+  ElasticForces::Segment s;
+  s.object = obj;
+  const Material& mat = scene.materials[scene.objects[static_cast<std::size_t>(obj)].material];
+  s.model = mat.model;
+  s.lambda = mat.lame_lambda();
+  s.mu = mat.lame_mu();
+  s.young = mat.young;
+  s.alpha = mat.damping_mass;
+  s.beta = mat.damping_stiffness;
+  s.active = !scene.objects[static_cast<std::size_t>(obj)].kinematic();
+  return s;
+}
+
+/// The rest data of tet t of a structure of arrays from its corners' rest positions X:
+/// Dm^-1 (row-major entries) and, with `springs`, the inverse rest lengths of its edges.
+/// One function for the constructor and measure()'s objects held elsewhere, so that both
+/// round alike.
+void rest_data(const double* const X[4], std::size_t t, std::vector<double> (&dm_inv)[9],
+               std::vector<double> (&inv_rest_length)[6], bool springs) {
+  const Mat3 dm = {X[1][0] - X[0][0], X[2][0] - X[0][0], X[3][0] - X[0][0], X[1][1] - X[0][1], X[2][1] - X[0][1],
+                   X[3][1] - X[0][1], X[1][2] - X[0][2], X[2][2] - X[0][2], X[3][2] - X[0][2]};
+  // Dm^-1 = cof(Dm)^T / det(Dm); meshes are validated, so det(Dm) = 6 V > 0.
+  const Mat3 c = cofactor(dm);
+  const double det_dm = det_from_cofactor(dm, c);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) dm_inv[3 * i + j][t] = c[3 * j + i] / det_dm;
+  if (springs)
+    for (int e = 0; e < 6; ++e) {
+      const double* a = X[kTetEdges[e][0]];
+      const double* b = X[kTetEdges[e][1]];
+      inv_rest_length[e][t] =
+          1 / std::sqrt((b[0] - a[0]) * (b[0] - a[0]) + (b[1] - a[1]) * (b[1] - a[1]) + (b[2] - a[2]) * (b[2] - a[2]));
+    }
+}
+
 }  // namespace
 
-ElasticForces::ElasticForces(const Scene& scene, const World& w) {
+ElasticForces::ElasticForces(const Scene& scene, const World& w, std::vector<int> held_elsewhere)
+    : scene_(&scene), held_elsewhere_(std::move(held_elsewhere)) {
+  std::sort(held_elsewhere_.begin(), held_elsewhere_.end());
+  held_elsewhere_.erase(std::unique(held_elsewhere_.begin(), held_elsewhere_.end()), held_elsewhere_.end());
+  for (int k : held_elsewhere_)
+    if (k < 0 || static_cast<std::size_t>(k) >= w.vertex_offset.size() || !w.owns_object(k))
+      throw RuntimeFailure("ElasticForces: object " + std::to_string(k) + " is not owned here");
+  auto elsewhere = [&](int obj) { return std::binary_search(held_elsewhere_.begin(), held_elsewhere_.end(), obj); };
   // Owned objects only: ghost tets (other ranks' objects within reach) are for contact.
-  const std::size_t m = w.m_owned;
+  // src[t]: the World's index of local tet t (the owned tets but those held elsewhere).
+  std::vector<std::size_t> src;
+  src.reserve(w.m_owned);
+  for (std::size_t t = 0; t < w.m_owned; ++t)
+    if (!elsewhere(w.tet_object[t])) src.push_back(t);
+  const std::size_t m = src.size();
   const std::size_t n = w.n_owned;
   for (auto& c : corner_) c.resize(m);
   for (auto& d : dm_inv_) d.resize(m);
@@ -55,20 +107,11 @@ ElasticForces::ElasticForces(const Scene& scene, const World& w) {
 
   // Segments: runs of tets of one object (objects are stored contiguously).
   for (std::size_t t = 0; t < m; ++t) {
-    const int obj = w.tet_object[t];
+    const int obj = w.tet_object[src[t]];
     if (segments_.empty() || segments_.back().object != obj) {
-      Segment s;
+      Segment s = segment_for(scene, obj);
       s.begin = t;
-      s.object = obj;
       s.owned = static_cast<int>(std::find(w.owned_objects.begin(), w.owned_objects.end(), obj) - w.owned_objects.begin());
-      const Material& mat = scene.materials[scene.objects[obj].material];
-      s.model = mat.model;
-      s.lambda = mat.lame_lambda();
-      s.mu = mat.lame_mu();
-      s.young = mat.young;
-      s.alpha = mat.damping_mass;
-      s.beta = mat.damping_stiffness;
-      s.active = !scene.objects[obj].kinematic();
       segments_.push_back(s);
     }
     segments_.back().end = t + 1;
@@ -81,24 +124,11 @@ ElasticForces::ElasticForces(const Scene& scene, const World& w) {
     for (auto& l : inv_rest_length_) l.assign(m, 0.0);
 
   for (std::size_t t = 0; t < m; ++t) {
-    const index_t* tet = &w.tets[4 * t];
+    const index_t* tet = &w.tets[4 * src[t]];
     for (int c = 0; c < 4; ++c) corner_[c][t] = tet[c];
     const double* X[4] = {&w.x[3 * tet[0]], &w.x[3 * tet[1]], &w.x[3 * tet[2]], &w.x[3 * tet[3]]};
-    const Mat3 dm = {X[1][0] - X[0][0], X[2][0] - X[0][0], X[3][0] - X[0][0], X[1][1] - X[0][1], X[2][1] - X[0][1],
-                     X[3][1] - X[0][1], X[1][2] - X[0][2], X[2][2] - X[0][2], X[3][2] - X[0][2]};
-    // Dm^-1 = cof(Dm)^T / det(Dm); meshes are validated, so det(Dm) = 6 V > 0.
-    const Mat3 c = cofactor(dm);
-    const double det_dm = det_from_cofactor(dm, c);
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) dm_inv_[3 * i + j][t] = c[3 * j + i] / det_dm;
-    volume_[t] = w.rest_volume[t];
-    if (material_law(segments_[tet_segment_[t]].model).spring_rest_lengths)
-      for (int e = 0; e < 6; ++e) {
-        const double* a = X[kTetEdges[e][0]];
-        const double* b = X[kTetEdges[e][1]];
-        inv_rest_length_[e][t] = 1 / std::sqrt((b[0] - a[0]) * (b[0] - a[0]) + (b[1] - a[1]) * (b[1] - a[1]) +
-                                               (b[2] - a[2]) * (b[2] - a[2]));
-      }
+    rest_data(X, t, dm_inv_, inv_rest_length_, material_law(segments_[tet_segment_[t]].model).spring_rest_lengths);
+    volume_[t] = w.rest_volume[src[t]];
   }
 
   // Per-tet force buffer: each segment starts on a whole chunk of kLanes tets, so that the
@@ -137,18 +167,18 @@ ElasticForces::ElasticForces(const Scene& scene, const World& w) {
   inc_offset_.assign(no + 1, 0);
   for (std::size_t t = 0; t < m; ++t)
     for (int c = 0; c < 4; ++c)
-      if (static_cast<std::size_t>(w.tets[4 * t + c]) < no) ++inc_offset_[w.tets[4 * t + c] + 1];
+      if (static_cast<std::size_t>(corner_[c][t]) < no) ++inc_offset_[corner_[c][t] + 1];
   std::partial_sum(inc_offset_.begin(), inc_offset_.end(), inc_offset_.begin());
   inc_slot_.resize(inc_offset_.back());
   std::vector<std::int64_t> fill(inc_offset_.begin(), inc_offset_.end() - 1);
   for (std::size_t t = 0; t < m; ++t)
     for (int c = 0; c < 4; ++c) {
-      const std::size_t v = w.tets[4 * t + c];
+      const auto v = static_cast<std::size_t>(corner_[c][t]);
       if (v < no) inc_slot_[fill[v]++] = slot(t, c);
     }
   // Tets are stored in increasing global id (objects in order, each object's tets in
   // order), so filling in tet order has already sorted every list.
-  for (std::size_t t = 1; t < m; ++t) SC_ASSERT(w.tet_gid[t - 1] < w.tet_gid[t]);
+  for (std::size_t t = 1; t < m; ++t) SC_ASSERT(w.tet_gid[src[t - 1]] < w.tet_gid[src[t]]);
 
   // add_forces' plan. A small object is evaluated whole when its tets' owned corners span
   // one range of vertices that belong to it alone (then no other tet adds to them);
@@ -167,7 +197,7 @@ ElasticForces::ElasticForces(const Scene& scene, const World& w) {
     std::size_t v0 = no, v1 = 0;
     for (std::size_t t = s.begin; t < s.end; ++t)
       for (int c = 0; c < 4; ++c) {
-        const auto v = static_cast<std::size_t>(w.tets[4 * t + c]);
+        const auto v = static_cast<std::size_t>(corner_[c][t]);
         if (v < no) {
           v0 = std::min(v0, v);
           v1 = std::max(v1, v + 1);
@@ -197,6 +227,8 @@ ElasticForces::ElasticForces(const Scene& scene, const World& w) {
   all_fused_ = fused_;
   all_unfused_blocks_ = unfused_blocks_;
   all_unfused_vertices_ = unfused_vertices_;
+  // The objects held elsewhere have no tets here; their vertices leave the gather.
+  if (!held_elsewhere_.empty()) exclude_objects(w, held_elsewhere_);
 }
 
 namespace {
@@ -300,6 +332,10 @@ void ElasticForces::add_vertex_force(const World& w, std::vector<double>& f, boo
 }
 
 void ElasticForces::exclude_objects(const World& w, const std::vector<int>& objects) {
+  for (int k : held_elsewhere_)
+    if (std::find(objects.begin(), objects.end(), k) == objects.end())
+      throw RuntimeFailure("ElasticForces: object " + std::to_string(k) +
+                           " was built without its rest data here, so its forces must stay elsewhere");
   std::vector<char> skip_segment(segments_.size(), 0);
   for (std::size_t k = 0; k < segments_.size(); ++k)
     skip_segment[k] = std::find(objects.begin(), objects.end(), segments_[k].object) != objects.end() ? 1 : 0;
@@ -401,6 +437,48 @@ void ElasticForces::measure(const World& w, ElasticMeasures& out) const {
     }
     out.energy[s.owned] += e;
     out.inverted[s.owned] += inv;
+  }
+  // The objects held elsewhere: their rest data made again from their rest mesh (the
+  // positions World::x held when the constructor ran), kChunk tets at a time, by the
+  // constructor's rest_data and build_world's signed_tet_volume, and their energy summed
+  // in tet order as a segment's above: the same bits as with their rest data held.
+  constexpr std::size_t kChunk = 1024;
+  for (int k : held_elsewhere_) {
+    const Segment s = segment_for(*scene_, k);
+    if (!s.active) continue;
+    const Scene::MeshView view = scene_->view_mesh(static_cast<std::size_t>(k));
+    const TetMesh& mesh = view.get();
+    const auto base = w.vertex_offset[static_cast<std::size_t>(k)];
+    const bool springs = material_law(s.model).spring_rest_lengths;
+    std::vector<index_t> corner[4];
+    std::vector<double> dm_inv[9], volume(kChunk), inv_rest_length[6];
+    for (auto& c : corner) c.resize(kChunk);
+    for (auto& d : dm_inv) d.resize(kChunk);
+    if (springs)
+      for (auto& l : inv_rest_length) l.resize(kChunk);
+    const TetView chunk = make_view(corner, dm_inv, volume, inv_rest_length);
+    double e = 0;
+    std::int64_t inv = 0;
+    for (std::size_t t0 = 0; t0 < mesh.num_tets(); t0 += kChunk) {
+      const std::size_t nc = std::min(kChunk, mesh.num_tets() - t0);
+      for (std::size_t i = 0; i < nc; ++i) {
+        const index_t* tet = &mesh.tets[4 * (t0 + i)];
+        for (int c = 0; c < 4; ++c) corner[c][i] = base + tet[c];
+        const double* X[4] = {&mesh.points[3 * tet[0]], &mesh.points[3 * tet[1]], &mesh.points[3 * tet[2]],
+                              &mesh.points[3 * tet[3]]};
+        rest_data(X, i, dm_inv, inv_rest_length, springs);
+        volume[i] = signed_tet_volume(X[0], X[1], X[2], X[3]);
+      }
+      for (std::size_t i = 0; i < nc; ++i) {
+        bool inverted = false;
+        e += tet_energy(chunk, i, s, w.x.data(), inverted);
+        inv += inverted ? 1 : 0;
+      }
+    }
+    const auto owned = static_cast<std::size_t>(std::find(w.owned_objects.begin(), w.owned_objects.end(), k) -
+                                                w.owned_objects.begin());
+    out.energy[owned] += e;
+    out.inverted[owned] += inv;
   }
 }
 

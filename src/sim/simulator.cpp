@@ -97,7 +97,14 @@ void Simulator::build_components() {
     delegated_before_[1] += core_->delegated_received();
   }
   core_.reset();  // the old implicit solver goes before the new one is made
-  core_ = std::make_unique<SerialStepper>(scene_, world_, collision_settings_);
+  // The owned objects prepare_split will split (on more than one rank every candidate
+  // is): their forces come from their parts, so no rest data of theirs is built for the
+  // whole object here (ElasticForces' held_elsewhere).
+  std::vector<int> split_owned;
+  if (nranks_ > 1)
+    for (int k : split_candidates_)
+      if (partition_[static_cast<std::size_t>(k)] == rank_) split_owned.push_back(k);
+  core_ = std::make_unique<SerialStepper>(scene_, world_, collision_settings_, std::move(split_owned));
   // A split object's points inside a body are found by that body's owner (docs/
   // architecture.md, "Contact of a split object").
   if (delegates_detection())

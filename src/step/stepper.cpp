@@ -89,9 +89,10 @@ CollisionSettings collision_settings_for(const Scene& scene, double mean) {
   return s;
 }
 
-SerialStepper::SerialStepper(const Scene& scene, World& world, const CollisionSettings& settings)
+SerialStepper::SerialStepper(const Scene& scene, World& world, const CollisionSettings& settings,
+                             std::vector<int> split_owned)
     : scene_(scene), world_(world), settings_(settings) {
-  motion_ = std::make_unique<UnconstrainedMotion>(scene_, world_);
+  motion_ = std::make_unique<UnconstrainedMotion>(scene_, world_, std::move(split_owned));
   contact_ = std::make_unique<ContactResponse>(scene_, world_);
   gaps_ = self_gap_cache_for(scene_);
 }

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <random>
 #include <string>
 
@@ -16,6 +17,7 @@
 #include "model/neohookean.hpp"
 #include "model/stvk.hpp"
 #include "model/mass_spring.hpp"
+#include "softcontact/error.hpp"
 #include "softcontact/forces.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/world.hpp"
@@ -402,4 +404,61 @@ TEST(ElasticForces, MeasureCountsInvertedTets) {
   ef.measure(w, m);
   EXPECT_EQ(m.inverted[0], 48);
   EXPECT_GT(m.energy[0], 0.0);
+}
+
+// Objects whose forces are computed elsewhere from the start (held_elsewhere: an owned
+// object split over ranks): no rest data of theirs is held, add_forces gives every other
+// vertex bitwise the force of the full plan with those objects excluded and leaves theirs
+// at zero, and measure() gives every object's energy and inverted count bitwise the full
+// one's, theirs from rest data made again from the scene's mesh. The reference is an
+// ElasticForces holding every tet. A list that leaves such an object out is refused.
+TEST(ElasticForces, ObjectsHeldElsewhereKeepNoRestDataAndMeasureBitwise) {
+  const Scene s = load_scene_from_string(
+      "simulation: {dt: 1e-4, steps: 1, gravity: [0, 0, 0]}\n"
+      "materials:\n  - {name: m, model: neohookean, young: 1e5, poisson: 0.3, density: 1000, damping: {mass: 0.7, stiffness: 0.01}}\n"
+      "  - {name: c, model: corotational, young: 1e5, poisson: 0.3, density: 1000, damping: {mass: 0.3, stiffness: 0.02}}\n"
+      "  - {name: s, model: mass_spring, young: 1e5, poisson: 0.3, density: 1000}\n"
+      "objects:\n"
+      "  - {material: m, primitive: {type: sphere, radius: 0.2, resolution: 4}}\n"
+      "  - {material: c, primitive: {type: box, size: [1, 1, 0.5], cells: [12, 12, 6]}, transform: {translate: [0, 0, 1]}}\n"
+      "  - {material: m, primitive: {type: box, size: [0.3, 0.3, 0.3], cells: [2, 2, 2]}, transform: {translate: [1, 0, 0]}}\n"
+      "  - {material: s, primitive: {type: sphere, radius: 0.2, resolution: 5}, transform: {translate: [0, 1, 0]}}\n",
+      "test.yaml");
+  World w = build_world(s, block_partition(s, 1), 0);
+  const std::vector<int> elsewhere = {1, 3};  // a large object (more than a chunk of 1,024 tets) and a spring one
+  ElasticForces full(s, w);
+  ElasticForces held(s, w, elsewhere);
+  EXPECT_EQ(held.held_tets(), full.held_tets() - s.shape(1).tets - s.shape(3).tets);
+  ASSERT_GT(s.shape(1).tets, std::size_t{1024});
+  perturb(w.x, 0.02, 41);
+  perturb(w.v, 0.5, 42);
+
+  full.exclude_objects(w, elsewhere);
+  std::vector<double> want(w.x.size(), 0.0), got(w.x.size(), 0.0);
+  full.add_forces(w, want, true);
+  held.add_forces(w, got, true);
+  for (std::size_t k = 0; k < want.size(); ++k) ASSERT_EQ(got[k], want[k]) << "dof " << k;
+
+  ElasticMeasures a, b;
+  full.measure(w, a);
+  held.measure(w, b);
+  ASSERT_EQ(b.energy.size(), a.energy.size());
+  for (std::size_t k = 0; k < a.energy.size(); ++k) {
+    EXPECT_EQ(std::memcmp(&b.energy[k], &a.energy[k], sizeof(double)), 0)
+        << "object " << k << ": " << b.energy[k] << " against " << a.energy[k];
+    EXPECT_EQ(b.inverted[k], a.inverted[k]) << "object " << k;
+    EXPECT_GT(a.energy[k], 0.0) << "object " << k << " is not deformed: the test proves nothing";
+  }
+  // Inverted tets count alike: squash the large object flat through itself.
+  for (std::size_t i = 0; i < w.n_owned; ++i)
+    if (w.vertex_object[i] == 1) w.x[3 * i + 2] = 1.0 - (w.x[3 * i + 2] - 1.0);
+  full.measure(w, a);
+  held.measure(w, b);
+  EXPECT_GT(a.inverted[1], 0);
+  EXPECT_EQ(b.inverted[1], a.inverted[1]);
+  EXPECT_EQ(std::memcmp(&b.energy[1], &a.energy[1], sizeof(double)), 0);
+
+  EXPECT_NO_THROW(held.exclude_objects(w, {0, 1, 3}));
+  EXPECT_THROW(held.exclude_objects(w, {1}), RuntimeFailure);
+  EXPECT_THROW(held.exclude_objects(w, {}), RuntimeFailure);
 }
