@@ -208,6 +208,7 @@ private:
   void refresh_final_ghosts();
 
   void build_components();
+  void release_components();
   // Before forces are evaluated: the split objects' plan (split_forces.hpp), made again
   // when the World was replaced.
   void prepare_split();
