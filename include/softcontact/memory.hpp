@@ -52,7 +52,8 @@ double peak_rss_bytes();
 /// The process's current and peak virtual size [bytes] (VmSize, VmPeak).
 double virtual_size_bytes();
 /// Bytes the C heap has handed out and not taken back, all arenas (glibc's mallinfo2:
-/// blocks in use plus mmapped ones); -1 where the C library cannot tell. Unlike the
+/// blocks in use plus mmapped ones); -1 where the C library cannot tell (another C library,
+/// or an allocator that replaces glibc's, such as AddressSanitizer's). Unlike the
 /// resident size it counts neither freed blocks the heap keeps nor MPI's shared segments,
 /// so a difference between two calls is what the code between them still holds.
 double heap_in_use_bytes();

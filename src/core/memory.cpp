@@ -145,8 +145,11 @@ double virtual_size_bytes() { return status_field("VmSize"); }
 
 double heap_in_use_bytes() {
 #if defined(__GLIBC__) && (__GLIBC__ > 2 || (__GLIBC__ == 2 && __GLIBC_MINOR__ >= 33))
+  // An allocator that replaces glibc's (AddressSanitizer's, tcmalloc) leaves mallinfo2
+  // all zeros: unknown then, never "nothing in use".
   const struct mallinfo2 m = mallinfo2();
-  return static_cast<double>(m.uordblks + m.hblkhd);
+  const double bytes = static_cast<double>(m.uordblks + m.hblkhd);
+  return bytes > 0 ? bytes : -1;
 #else
   return -1;
 #endif
