@@ -159,8 +159,11 @@ SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitOb
     for (std::size_t t = 0; t < m.num_tets(); ++t)
       if (so.tet_part[t] == w.rank)
         for (int c = 0; c < 4; ++c) mini_of[static_cast<std::size_t>(m.tets[4 * t + c])] = 0;
+    // The part's World holds its vertices and tets only: no table of the whole scene
+    // (the layout and vertex offsets, 64 bytes per object of the scene), which its
+    // forces never read (ElasticForces reads them only for objects excluded or held
+    // elsewhere, and a part has none).
     World& mw = p->mini;
-    mw.layout = w.layout;
     mw.rank = w.rank;
     mw.owned_objects = {so.object};
     for (std::size_t j = 0; j < m.num_vertices(); ++j) {
@@ -189,8 +192,6 @@ SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitOb
     }
     mw.n_owned = nv;
     mw.m_owned = mw.tet_gid.size();
-    mw.vertex_offset.assign(w.vertex_offset.size(), -1);
-    mw.vertex_offset[k] = 0;
     if (mw.m_owned > 0) p->forces = std::make_unique<ElasticForces>(scene, mw);
     evaluated_tets_ += static_cast<std::int64_t>(mw.m_owned);
     if (!own) {
