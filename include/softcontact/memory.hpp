@@ -27,6 +27,12 @@ struct MemoryEstimate {
 /// largest object (the parts of objects split for their forces are not counted).
 MemoryEstimate estimate_memory(const Scene& scene, int nranks);
 
+/// The model's share for owned state [bytes]: what the owner of `tets` tets and `vertices`
+/// vertices holds for them (forces, collision, contact, output), beyond what every rank
+/// holds. estimate_memory's owned share, and the memory weight of the partition
+/// (rebalance.cpp, partition_at).
+double owned_state_bytes(double tets, double vertices);
+
 /// What this rank may use [bytes]: its address-space limit (RLIMIT_AS, 0 when none) and
 /// the node's available memory divided by the ranks on the node (0 when unknown).
 struct MemoryLimits {

@@ -19,6 +19,14 @@ struct PartitionInput {
   /// Zero is allowed; METIS sees such an object as weight 1 (it has to land somewhere)
   /// and the empty-rank rule below does not count it.
   std::vector<std::int64_t> weight;
+  /// Per object: the memory its owner holds for it, >= 0 [bytes, or any unit], or empty
+  /// (the work alone). A kinematic object costs little work but its vertices cost memory
+  /// like any other's. When given and the partition by work leaves the memory of some
+  /// part above kMemoryImbalanceTrigger times the mean, METIS partitions again with the
+  /// memory as a second constraint (ncon = 2, tolerance kMemoryTolerance), and that
+  /// partition is taken if its work imbalance is at most the larger of the first's and
+  /// 1.03, plus 0.01, and its memory imbalance lower (see partition_objects).
+  std::vector<std::int64_t> memory;
   /// Per object: current bounding box (lo <= hi, finite).
   std::vector<Box> box;
   /// Objects whose boxes are at most this far apart on every axis (boxes grown by
@@ -26,8 +34,17 @@ struct PartitionInput {
   double reach = 0;
 };
 
+/// The load tolerance of the memory constraint: max part memory / mean part memory that
+/// METIS aims below (the work's is 1.03, METIS's default ufactor 30). Looser than the
+/// work's, which sets the pace: memory only has to fit.
+inline constexpr double kMemoryTolerance = 1.10;
+/// The memory imbalance of the partition by work above which it is partitioned again
+/// with the memory as a second constraint (partition_objects).
+inline constexpr double kMemoryImbalanceTrigger = 1.5;
+
 struct PartitionQuality {
   double imbalance = 1;          ///< max part weight / mean part weight (1 is perfect)
+  double memory_imbalance = 1;   ///< the same for PartitionInput::memory (1 when not given)
   std::int64_t cut_edges = 0;    ///< graph edges whose ends lie on different parts
   std::int64_t cut_weight = 0;   ///< sum of their edge weights
 };
@@ -94,6 +111,17 @@ inline constexpr int kMetisCuts = 4;
 /// them (lowest part on ties) moves to the lowest-numbered empty part. Zero-weight
 /// objects do not count: a part may hold only those, or none.
 ///
+/// With PartitionInput::memory given, each METIS problem (the objects left after the
+/// giants, or a group's) is partitioned by the work first; only where that leaves the
+/// memory of some part above kMemoryImbalanceTrigger times the mean is it partitioned
+/// again with both constraints (the same kMetisCuts runs), and kept if its work imbalance
+/// is at most max(the first's, 1.03) + 0.01 and its memory imbalance lower. Memory only
+/// has to fit, and two constraints cost cut; and METIS, asked to balance a memory it
+/// cannot (an object split over ranks, whose owner holds all its vertices), gives up the
+/// work's balance for it (inputs/archway.yaml on 4 ranks: 1.03 to 1.39). The scenes
+/// shipped keep their partitions on 2, 4 and 8 ranks (docs/benchmarks.md, "memory as a
+/// second constraint").
+///
 /// Weights whose total would overflow METIS' idx_t are scaled down (each kept >= 1).
 /// Throws RuntimeFailure for malformed input (sizes, negative weight, non-finite or
 /// inverted box, nparts < 1) or when METIS fails.
@@ -115,8 +143,9 @@ struct PartGroups {
 /// the objects, sorted by the centre of their box along the axis where the centres
 /// spread widest (ties: object index), are cut where the running sum of their weights
 /// (each at least 1) comes nearest the lower half's share of the total (at least one
-/// object each side); until each range of parts fits in a group. One group holding
-/// every object when nparts <= parts_per_group or there are no more objects than parts.
+/// object each side; with PartitionInput::memory given, where the larger of the two
+/// sums' distances from their shares, each relative to its total, is smallest); until
+/// each range of parts fits in a group. One group holding every object when nparts <= parts_per_group or there are no more objects than parts.
 /// O(n log n) per level, log2(nparts / parts_per_group) levels; identical on every rank.
 PartGroups group_objects(const PartitionInput& in, int nparts, int parts_per_group = kPartsPerGroup);
 

@@ -28,14 +28,19 @@ struct RebalancePolicy {
   /// Node weights of the repartition: measured cost (measured_weights), or the static
   /// work alone (tets; what the initial partition uses).
   bool measured_weights = true;
+  /// The least reach of the partition's graph [m] (partition_at's min_reach): the
+  /// Simulator sets the ghosts' first skin, the detector's cell.
+  double min_reach = 0;
 };
 
 /// The policy a scene asks for (`simulation.rebalance`, docs/formats.md).
 RebalancePolicy rebalance_policy(const Simulation& sim);
 
 /// The partition METIS gives the scene's objects at their initial positions: nodes
-/// weighted by tets (kinematic objects by a tenth of their surface triangles), edges
-/// between objects closer than the median object size. Identical on every rank. With a
+/// weighted by tets (kinematic objects by a tenth of their surface triangles) and by the
+/// memory their owner holds for them (a second constraint), edges between objects closer
+/// than the median object size or `min_reach`, whichever is larger. Identical on every
+/// rank. With a
 /// communicator (collective then), its ranks share the work (partition_objects_over):
 /// past kPartsPerGroup ranks each rank partitions only its group's objects; within a
 /// group the ranks share METIS's search for the smallest cut (CutSearch, partition.hpp).
@@ -46,7 +51,7 @@ using SplitHosts = std::vector<std::vector<int>>;
 
 /// `hosts` (optional): where the split objects' parts go (partition_at).
 std::vector<int> initial_partition(const Scene& scene, int nranks, MPI_Comm comm = MPI_COMM_NULL,
-                                   SplitHosts* hosts = nullptr);
+                                   SplitHosts* hosts = nullptr, double min_reach = 0);
 
 /// The same partition at the object boxes `boxes` (objects that have moved; a box with
 /// a non-finite corner counts as a point at the origin). Identical on every rank.
@@ -59,9 +64,21 @@ std::vector<int> initial_partition(const Scene& scene, int nranks, MPI_Comm comm
 /// those nodes landed, so that the ranks that evaluate the parts are those the partition
 /// kept room on (one part per rank in rank order for an object with as many parts as
 /// ranks).
+///
+/// The second constraint, memory (PartitionInput::memory, tolerance kMemoryTolerance):
+/// owned_state_bytes (memory.hpp) of an object's tets and vertices; for a split object's
+/// owner, of all its vertices plus its part's share of tets and vertices, and for each
+/// other part's node that share. A kinematic object weighs little work but its vertices'
+/// memory, so that no rank is given most of them (docs/benchmarks.md, "memory as a
+/// second constraint").
+///
+/// The graph joins objects within max(median object size, min_reach) of each other: a
+/// rank ghosts the objects within its skin (at first the detector's cell, ghosts.hpp) of
+/// its own, so objects that near each other must be joined, or METIS, free to place
+/// them by balance alone, scatters them and every rank ghosts most of them.
 std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes,
                               int nranks, std::vector<std::int64_t> weights = {}, MPI_Comm comm = MPI_COMM_NULL,
-                              SplitHosts* hosts = nullptr);
+                              SplitHosts* hosts = nullptr, double min_reach = 0);
 
 /// Split hosts from a partition alone, where the partition that kept room for the parts
 /// is not at hand (a partition given to the Simulator, a restart, a migration by hand):

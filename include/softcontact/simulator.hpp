@@ -42,6 +42,14 @@ struct StepDiagnostics;
 class GhostSet;
 struct LocalCheck;
 
+/// The scene's median edge (returned) and mean edge (`mean`) [m], tets' edges counted
+/// once per tet, before the objects are given out: each object's edges are measured by
+/// the rank that made its mesh while the scene was read (SceneObject::maker, when it is a
+/// rank of `comm`), or else by rank k % ranks (a mesh not held there made for the moment,
+/// not kept). The same values, to the bit,
+/// on any rank count. Collective.
+double scene_edge_statistics(MPI_Comm comm, const Scene& scene, double& mean);
+
 class Simulator {
 public:
   /// Builds this rank's World (objects partitioned over the ranks of `comm` with METIS,
@@ -224,7 +232,6 @@ private:
   /// rank to their owner, if another, before the World is built: the owner neither reads
   /// the file again nor generates the primitive again. Collective.
   void hand_over_made_meshes();
-  double edge_statistics(double& mean) const;  // collective: median and mean edge
   void maybe_rebalance();
   void migrate(const std::vector<int>& partition, SplitHosts hosts);  // with the split objects' hosts of that partition
 

@@ -73,9 +73,12 @@ MemoryEstimate estimate_memory(const Scene& scene, int nranks) {
   e.fixed = kFixedBytes;
   e.per_rank = kFixedBytes + kSceneBytesPerTet * static_cast<double>(everywhere_t) +
                kObjectBytes * static_cast<double>(scene.objects.size()) +
-               kOwnedBytesPerTet * static_cast<double>(e.rank_tets) +
-               kOwnedBytesPerVertex * static_cast<double>(e.rank_vertices);
+               owned_state_bytes(static_cast<double>(e.rank_tets), static_cast<double>(e.rank_vertices));
   return e;
+}
+
+double owned_state_bytes(double tets, double vertices) {
+  return kOwnedBytesPerTet * tets + kOwnedBytesPerVertex * vertices;
 }
 
 MemoryLimits memory_limits(MPI_Comm comm) {

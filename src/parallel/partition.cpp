@@ -16,6 +16,11 @@ namespace {
 
 // Any fixed value: the same seed gives the same partition on every rank and every call.
 constexpr idx_t kMetisSeed = 20240607;
+// METIS's default load tolerance (ufactor 30), the work's also with two constraints.
+constexpr double kWorkTolerance = 1.03;
+// The work imbalance a memory-balanced partition may add to the larger of the work-only
+// partition's and kWorkTolerance, and still be taken (metis_parts).
+constexpr double kMemoryWorkSlack = 0.01;
 // Total vertex weight handed to METIS stays below this, whatever idx_t's width: METIS
 // sums weights in idx_t and scales them by real_t (float) factors, so leave headroom.
 constexpr std::int64_t kMaxMetisWeight = std::int64_t{1} << 30;
@@ -28,6 +33,14 @@ constexpr std::int64_t kMaxMetisWeight = std::int64_t{1} << 30;
 void validate(const PartitionInput& in) {
   if (in.weight.size() != in.box.size())
     fail(std::to_string(in.weight.size()) + " weights for " + std::to_string(in.box.size()) + " boxes");
+  if (!in.memory.empty() && in.memory.size() != in.box.size())
+    fail(std::to_string(in.memory.size()) + " memory weights for " + std::to_string(in.box.size()) + " boxes");
+  std::int64_t memory = 0;
+  for (std::size_t k = 0; k < in.memory.size(); ++k) {
+    if (in.memory[k] < 0) fail("object " + std::to_string(k) + " has negative memory " + std::to_string(in.memory[k]));
+    if (in.memory[k] > std::numeric_limits<std::int64_t>::max() / 2 - memory) fail("the total memory overflows");
+    memory += in.memory[k];
+  }
   if (in.box.size() > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
     fail("too many objects (" + std::to_string(in.box.size()) + ")");
   if (!std::isfinite(in.reach) || in.reach < 0) fail("reach must be finite and >= 0, got " + std::to_string(in.reach));
@@ -49,13 +62,14 @@ double axis_gap(const Box& a, const Box& b, int axis) {
 }
 
 struct Graph {
-  std::vector<idx_t> xadj, adjncy, adjwgt, vwgt;
+  std::vector<idx_t> xadj, adjncy, adjwgt, vwgt;  // vwgt: ncon per node
+  idx_t ncon = 1;
 };
 
 // CSR adjacency of the edge list (ascending (i, j), so every node's neighbours come out
 // ascending: first the smaller ones from edges (u, v), then the larger from (v, w)), and
 // the vertex weights METIS gets: each >= 1, scaled down if their total would overflow.
-Graph metis_graph(const PartitionInput& in, const std::vector<ObjectEdge>& edges) {
+Graph metis_graph(const PartitionInput& in, const std::vector<ObjectEdge>& edges, bool with_memory) {
   const std::size_t n = in.weight.size();
   if (2 * edges.size() > static_cast<std::size_t>(std::numeric_limits<idx_t>::max()))
     fail("too many graph edges for METIS (" + std::to_string(edges.size()) + ")");
@@ -77,16 +91,24 @@ Graph metis_graph(const PartitionInput& in, const std::vector<ObjectEdge>& edges
     g.adjwgt[fill[e.j]++] = e.weight;
   }
 
-  std::int64_t total = 0;
-  for (std::int64_t w : in.weight) total += std::max<std::int64_t>(w, 1);
-  const double scale =
-      total > kMaxMetisWeight ? static_cast<double>(kMaxMetisWeight) / static_cast<double>(total) : 1.0;
-  g.vwgt.resize(n);
-  for (std::size_t v = 0; v < n; ++v) {
-    const std::int64_t w = std::max<std::int64_t>(in.weight[v], 1);
-    g.vwgt[v] = scale == 1.0 ? static_cast<idx_t>(w)
-                             : static_cast<idx_t>(std::max<std::int64_t>(1, static_cast<std::int64_t>(w * scale)));
+  // Per constraint (the work, then the memory when given), interleaved per node as
+  // METIS reads them; each scaled on its own (METIS normalises each by its total).
+  const std::size_t ncon = with_memory && !in.memory.empty() ? 2 : 1;
+  g.vwgt.resize(ncon * n);
+  for (std::size_t c = 0; c < ncon; ++c) {
+    const std::vector<std::int64_t>& weight = c == 0 ? in.weight : in.memory;
+    std::int64_t total = 0;
+    for (std::int64_t w : weight) total += std::max<std::int64_t>(w, 1);
+    const double scale =
+        total > kMaxMetisWeight ? static_cast<double>(kMaxMetisWeight) / static_cast<double>(total) : 1.0;
+    for (std::size_t v = 0; v < n; ++v) {
+      const std::int64_t w = std::max<std::int64_t>(weight[v], 1);
+      g.vwgt[ncon * v + c] =
+          scale == 1.0 ? static_cast<idx_t>(w)
+                       : static_cast<idx_t>(std::max<std::int64_t>(1, static_cast<std::int64_t>(w * scale)));
+    }
   }
+  g.ncon = static_cast<idx_t>(ncon);
   return g;
 }
 
@@ -100,8 +122,10 @@ const char* metis_status(int status) {
 
 // One k-way run with seed kMetisSeed + candidate; `cut` is its edge cut.
 std::vector<int> run_metis(Graph& g, int nparts, int candidate, std::int64_t& cut) {
-  idx_t nvtxs = static_cast<idx_t>(g.vwgt.size());
-  idx_t ncon = 1;
+  idx_t nvtxs = static_cast<idx_t>(g.xadj.size() - 1);
+  idx_t ncon = g.ncon;
+  // The work's tolerance is METIS's default (ufactor 30); the memory's looser.
+  std::array<real_t, 2> ubvec{static_cast<real_t>(kWorkTolerance), static_cast<real_t>(kMemoryTolerance)};
   idx_t np = nparts;
   idx_t objval = 0;
   idx_t options[METIS_NOPTIONS];
@@ -109,9 +133,10 @@ std::vector<int> run_metis(Graph& g, int nparts, int candidate, std::int64_t& cu
   options[METIS_OPTION_SEED] = kMetisSeed + candidate;
   options[METIS_OPTION_NUMBERING] = 0;
   options[METIS_OPTION_NCUTS] = 1;
-  std::vector<idx_t> part(g.vwgt.size(), 0);
+  std::vector<idx_t> part(static_cast<std::size_t>(nvtxs), 0);
   const int status = METIS_PartGraphKway(&nvtxs, &ncon, g.xadj.data(), g.adjncy.data(), g.vwgt.data(), nullptr,
-                                         g.adjwgt.data(), &np, nullptr, nullptr, options, &objval, part.data());
+                                         g.adjwgt.data(), &np, nullptr, ncon > 1 ? ubvec.data() : nullptr, options,
+                                         &objval, part.data());
   if (status != METIS_OK)
     fail(std::string("METIS_PartGraphKway failed with ") + metis_status(status) + " on " + std::to_string(nvtxs) +
          " objects, " + std::to_string(g.xadj.back() / 2) + " edges, " + std::to_string(nparts) + " parts");
@@ -157,22 +182,27 @@ std::vector<int> best_metis(Graph& g, int nparts, const CutSearch& search) {
   std::vector<int> chosen = search.best(best_cut, best_c, std::move(best));
   if (!failed.empty()) throw RuntimeFailure(failed);
   if (chosen.empty()) fail("METIS failed on another rank's candidate (its rank reports why)");
-  if (chosen.size() != g.vwgt.size()) fail("the shared cut search returned " + std::to_string(chosen.size()) + " parts");
+  if (chosen.size() != g.xadj.size() - 1) fail("the shared cut search returned " + std::to_string(chosen.size()) + " parts");
   return chosen;
 }
 
 PartitionQuality quality(const PartitionInput& in, const std::vector<ObjectEdge>& edges, const std::vector<int>& part,
                          int nparts) {
   PartitionQuality q;
-  std::vector<std::int64_t> load(static_cast<std::size_t>(nparts), 0);
-  std::int64_t total = 0;
-  for (std::size_t k = 0; k < part.size(); ++k) {
-    load[static_cast<std::size_t>(part[k])] += in.weight[k];
-    total += in.weight[k];
-  }
-  if (total > 0)
-    q.imbalance = static_cast<double>(*std::max_element(load.begin(), load.end())) /
-                  (static_cast<double>(total) / nparts);
+  // max part load / mean part load of `weight` (1 when its total is 0).
+  auto imbalance = [&](const std::vector<std::int64_t>& weight) {
+    std::vector<std::int64_t> load(static_cast<std::size_t>(nparts), 0);
+    std::int64_t total = 0;
+    for (std::size_t k = 0; k < part.size(); ++k) {
+      load[static_cast<std::size_t>(part[k])] += weight[k];
+      total += weight[k];
+    }
+    return total > 0 ? static_cast<double>(*std::max_element(load.begin(), load.end())) /
+                           (static_cast<double>(total) / nparts)
+                     : 1.0;
+  };
+  q.imbalance = imbalance(in.weight);
+  if (!in.memory.empty()) q.memory_imbalance = imbalance(in.memory);
   for (const ObjectEdge& e : edges)
     if (part[e.i] != part[e.j]) {
       ++q.cut_edges;
@@ -227,12 +257,33 @@ void metis_parts(const PartitionInput& in, const std::vector<std::int32_t>& ids,
   sub.box.reserve(ids.size());
   for (std::int32_t k : ids) {
     sub.weight.push_back(in.weight[k]);
+    if (!in.memory.empty()) sub.memory.push_back(in.memory[k]);
     sub.box.push_back(in.box[k]);
   }
   const std::vector<ObjectEdge> edges = object_graph_edges(sub);
-  Graph g = metis_graph(sub, edges);
-  std::vector<int> p = best_metis(g, nparts, search);
-  fill_empty_parts(sub, p, nparts);
+  auto parts_of = [&](bool with_memory) {
+    Graph g = metis_graph(sub, edges, with_memory);
+    std::vector<int> p = best_metis(g, nparts, search);
+    fill_empty_parts(sub, p, nparts);
+    return p;
+  };
+  std::vector<int> p = parts_of(false);
+  if (!sub.memory.empty()) {
+    // The memory as a second constraint only where the work alone leaves it far out of
+    // balance (memory only has to fit; two constraints cost cut: 16 equal cubes of
+    // unequal cost, balanced by count as well, are no longer cut in one place), and only
+    // if that keeps the work's balance (the pace): METIS, asked to balance a memory it
+    // cannot (a split object's owner holds all its vertices), gives up work balance for
+    // it (archway on 4 ranks: 1.03 -> 1.39).
+    const PartitionQuality by_work = quality(sub, edges, p, nparts);
+    if (by_work.memory_imbalance > kMemoryImbalanceTrigger) {
+      std::vector<int> both = parts_of(true);
+      const PartitionQuality q = quality(sub, edges, both, nparts);
+      if (q.imbalance <= std::max(by_work.imbalance, kWorkTolerance) + kMemoryWorkSlack &&
+          q.memory_imbalance < by_work.memory_imbalance)
+        p = std::move(both);
+    }
+  }
   for (std::size_t k = 0; k < ids.size(); ++k) part[ids[k]] = first + p[k];
 }
 
@@ -318,6 +369,7 @@ PartGroups group_objects(const PartitionInput& in, int nparts, int parts_per_gro
     return 0.5 * (b.lo[a] + b.hi[a]);
   };
   auto weight = [&](std::int32_t k) { return std::max<std::int64_t>(in.weight[static_cast<std::size_t>(k)], 1); };
+  auto memory = [&](std::int32_t k) { return in.memory.empty() ? std::int64_t{0} : in.memory[static_cast<std::size_t>(k)]; };
   std::vector<std::int32_t> ids(n);
   std::iota(ids.begin(), ids.end(), 0);
   // Objects [b, e) of ids into parts [first, first + parts): halves of the parts, the
@@ -349,16 +401,28 @@ PartGroups group_objects(const PartitionInput& in, int nparts, int parts_per_gro
                 return cx != cy ? cx < cy : x < y;
               });
     const int left = parts / 2;
-    long double total = 0;
-    for (std::size_t i = b; i < e; ++i) total += static_cast<long double>(weight(ids[i]));
-    const long double target = total * left / parts;
-    // The cut after the first objects whose weight comes nearest the target (at least
-    // one object on each side).
+    long double total = 0, total_memory = 0;
+    for (std::size_t i = b; i < e; ++i) {
+      total += static_cast<long double>(weight(ids[i]));
+      total_memory += static_cast<long double>(memory(ids[i]));
+    }
+    const long double target = total * left / parts, target_memory = total_memory * left / parts;
+    // How far a cut with these sums on its lower side is from the halves: the work's
+    // distance; with memory given, the larger of the two distances relative to their totals.
+    auto off = [&](long double sum, long double sum_memory) {
+      if (in.memory.empty()) return std::fabs(sum - target);
+      return std::max(std::fabs(sum - target) / total,
+                      total_memory > 0 ? std::fabs(sum_memory - target_memory) / total_memory : 0.0L);
+    };
+    // The cut after the first objects whose sums come nearest the targets (at least one
+    // object on each side).
     std::size_t cut = b + 1;
-    long double sum = static_cast<long double>(weight(ids[b])), best = std::fabs(sum - target);
+    long double sum = static_cast<long double>(weight(ids[b])), sum_memory = static_cast<long double>(memory(ids[b]));
+    long double best = off(sum, sum_memory);
     for (std::size_t i = b + 1; i + 1 < e; ++i) {
       sum += static_cast<long double>(weight(ids[i]));
-      const long double d = std::fabs(sum - target);
+      sum_memory += static_cast<long double>(memory(ids[i]));
+      const long double d = off(sum, sum_memory);
       if (d < best) {
         best = d;
         cut = i + 1;
@@ -385,6 +449,7 @@ PartitionInput group_input(const PartitionInput& in, const std::vector<std::int3
   sub.box.reserve(members.size());
   for (std::int32_t k : members) {
     sub.weight.push_back(in.weight[static_cast<std::size_t>(k)]);
+    if (!in.memory.empty()) sub.memory.push_back(in.memory[static_cast<std::size_t>(k)]);
     sub.box.push_back(in.box[static_cast<std::size_t>(k)]);
   }
   return sub;

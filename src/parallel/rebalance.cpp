@@ -11,6 +11,7 @@
 #include "softcontact/error.hpp"
 #include "softcontact/exchange.hpp"
 #include "softcontact/ghosts.hpp"
+#include "softcontact/memory.hpp"
 #include "softcontact/mpi_util.hpp"
 #include "softcontact/split_forces.hpp"
 
@@ -49,6 +50,24 @@ struct PartNodes {
   std::vector<std::size_t> object;  // per node: the split object
   std::vector<std::int64_t> work;   // per node: the object's static work / its parts
 };
+
+// The memory model's owned state of object k's tets and vertices / `parts` [bytes].
+std::int64_t state_bytes(const Scene& scene, std::size_t k, int parts) {
+  const ObjectShape& s = scene.shape(k);
+  return static_cast<std::int64_t>(
+      std::llround(owned_state_bytes(static_cast<double>(s.tets), static_cast<double>(s.vertices)) / std::max(parts, 1)));
+}
+
+// The memory an object's owner holds for it (the partition's second constraint): its
+// owned state; a split object's owner holds the whole object's vertex state and one part's
+// share of its tets and vertices (its part's World). The memory of a part node (part_nodes):
+// that share alone. The ghosts a rank holds are not counted.
+std::int64_t owner_memory(const Scene& scene, std::size_t k, const std::vector<int>& parts) {
+  if (parts[k] <= 0) return state_bytes(scene, k, 1);
+  const ObjectShape& s = scene.shape(k);
+  return static_cast<std::int64_t>(std::llround(owned_state_bytes(0, static_cast<double>(s.vertices)))) +
+         state_bytes(scene, k, parts[k]);
+}
 
 PartNodes part_nodes(const Scene& scene, int nranks, const std::vector<int>& parts) {
   PartNodes n;
@@ -307,7 +326,7 @@ std::vector<int> partition_objects_over(const PartitionInput& in, int nparts, MP
 }
 
 std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes, int nranks,
-                              std::vector<std::int64_t> weights, MPI_Comm comm, SplitHosts* hosts) {
+                              std::vector<std::int64_t> weights, MPI_Comm comm, SplitHosts* hosts, double min_reach) {
   const std::size_t no = scene.objects.size();
   if (hosts) hosts->clear();
   if (nranks <= 1) return std::vector<int>(no, 0);
@@ -320,18 +339,21 @@ std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes, int nr
   PartitionInput in;
   const bool tet_weights = weights.empty();
   in.weight = std::move(weights);
+  in.memory.reserve(nn);
   for (std::size_t k = 0; k < no; ++k) {
     if (tet_weights) in.weight.push_back(shared_work(scene, k, parts));
+    in.memory.push_back(owner_memory(scene, k, parts));
     for (int d = 0; d < 3; ++d)
       if (!std::isfinite(boxes[k].lo[d]) || !std::isfinite(boxes[k].hi[d]) || !(boxes[k].lo[d] <= boxes[k].hi[d]))
         boxes[k].lo[d] = boxes[k].hi[d] = 0;  // a blown-up object
   }
-  in.reach = median_object_size(boxes);
+  in.reach = std::max(median_object_size(boxes), std::isfinite(min_reach) ? min_reach : 0.0);
   // The parts of split objects as nodes at their object's box: near what touches it, so
   // that their ranks tend to hold it as a ghost (and read its positions there).
   boxes.reserve(nn);
   for (std::size_t j = 0; j < nodes.object.size(); ++j) {
     if (tet_weights) in.weight.push_back(nodes.work[j]);
+    in.memory.push_back(state_bytes(scene, nodes.object[j], parts[nodes.object[j]]));
     const Box b = boxes[nodes.object[j]];
     boxes.push_back(b);
   }
@@ -361,8 +383,8 @@ bool rebalance_due(const RebalancePolicy& policy, std::int64_t step) {
   return policy.check_every > 0 && step > 0 && step % policy.check_every == 0;
 }
 
-std::vector<int> initial_partition(const Scene& scene, int nranks, MPI_Comm comm, SplitHosts* hosts) {
-  return partition_at(scene, scene_boxes(scene), nranks, {}, comm, hosts);
+std::vector<int> initial_partition(const Scene& scene, int nranks, MPI_Comm comm, SplitHosts* hosts, double min_reach) {
+  return partition_at(scene, scene_boxes(scene), nranks, {}, comm, hosts, min_reach);
 }
 
 bool rebalance_wanted(const RebalancePolicy& policy, double imbalance, double cross, RebalanceHistory& h) {
@@ -403,7 +425,7 @@ bool rebalance(MPI_Comm comm, const Scene& scene, const World& w,
     MPI_Allreduce(MPI_IN_PLACE, contacts.data(), static_cast<int>(contacts.size()), MPI_INT64_T, MPI_SUM, comm);
     weights = measured_weights(scene, current, seconds, contacts, hosts ? *hosts : SplitHosts());
   }
-  next = partition_at(scene, object_boxes(comm, scene, w), nranks, std::move(weights), comm, hosts);
+  next = partition_at(scene, object_boxes(comm, scene, w), nranks, std::move(weights), comm, hosts, policy.min_reach);
   keep_objects_in_place(scene, current, nranks, next, hosts);
   std::int64_t moved = 0;
   for (std::size_t k = 0; k < next.size(); ++k) moved += next[k] != current[k] ? 1 : 0;

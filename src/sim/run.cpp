@@ -26,6 +26,7 @@
 #include "softcontact/memory.hpp"
 #include "softcontact/mpi_util.hpp"
 #include "softcontact/simulator.hpp"
+#include "softcontact/stepper.hpp"
 #include "softcontact/forces.hpp"
 #include "softcontact/surface.hpp"
 #include "softcontact/verify.hpp"
@@ -285,7 +286,13 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     const CheckpointInfo& info = restart->info;
     bool same = info.ranks == nranks && info.partition.size() == scene.objects.size();
     for (int r : info.partition) same = same && r >= 0 && r < nranks;
-    partition = same ? info.partition : partition_at(scene, info.boxes, nranks, {}, comm, &hosts);
+    if (same) {
+      partition = info.partition;
+    } else {
+      double mean_edge = 0;  // the graph's least reach, as the Simulator's (initial_partition)
+      (void)scene_edge_statistics(comm, scene, mean_edge);
+      partition = partition_at(scene, info.boxes, nranks, {}, comm, &hosts, collision_settings_for(scene, mean_edge).cell_size);
+    }
     // The same rank count: the parts where they were. Hosts only place work, never
     // change a result: where they do not fit (a checkpoint without them, or a split
     // turned off since), the Simulator's split_hosts fallback places the parts.

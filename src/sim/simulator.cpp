@@ -42,8 +42,16 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
     t = now;
   };
   rebalance_ = rebalance_policy(scene.sim);
+  // Before the partition: the ghosts' first skin (the detector's cell, the mean edge) is
+  // the least reach of the partition's graph.
+  double mean_edge = 0;
+  median_edge_ = scene_edge_statistics(comm_, scene_, mean_edge);
+  collision_settings_ = collision_settings_for(scene, mean_edge);
+  rebalance_.min_reach = collision_settings_.cell_size;
+  stage("edge statistics");
   const bool given = !partition.empty();
-  partition_ = given ? std::move(partition) : initial_partition(scene, nranks_, comm_, &split_hosts_);
+  partition_ = given ? std::move(partition)
+                     : initial_partition(scene, nranks_, comm_, &split_hosts_, rebalance_.min_reach);
   if (partition_.size() != scene.objects.size())
     throw RuntimeFailure("Simulator: the partition names " + std::to_string(partition_.size()) + " objects, the scene has " +
                          std::to_string(scene.objects.size()));
@@ -63,10 +71,6 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
   stage("hand-over");
   world_ = build_world(scene, partition_, rank_);
   stage("world");
-  double mean_edge = 0;
-  median_edge_ = edge_statistics(mean_edge);
-  collision_settings_ = collision_settings_for(scene, mean_edge);
-  stage("edge statistics");
   ghosts_ = std::make_unique<GhostSet>(comm, scene_, collision_settings_.cell_size);
   drop_unneeded_meshes();  // the ghosts' meshes are made again as the ghost set takes them
   split_candidates_ = split_candidates(scene_, nranks_);
@@ -208,17 +212,24 @@ void Simulator::follow_ghosts() {
 // reads the meshes of the whole scene or holds its lengths. The mean is the objects' sums
 // in scene order (mean_of_object_sums; each sum comes from its owner, the others add
 // exact zeros), the median an exact selection over the ranks (kth_smallest).
-double Simulator::edge_statistics(double& mean) const {
-  std::vector<double> sums(scene_.objects.size(), 0.0), len, own;
-  for (int k : world_.owned_objects) {
-    sums[static_cast<std::size_t>(k)] = object_edge_sum(scene_.mesh(static_cast<std::size_t>(k)), own);
+double scene_edge_statistics(MPI_Comm comm, const Scene& scene, double& mean) {
+  const int rank = comm_rank(comm), nranks = comm_size(comm);
+  std::vector<double> sums(scene.objects.size(), 0.0), len, own;
+  for (std::size_t k = 0; k < scene.objects.size(); ++k) {
+    // (A maker outside this communicator: a scene read over more ranks than this run's,
+    // as a one-rank reference run in the tests.)
+    const int maker = scene.objects[k].maker;
+    const int by = maker >= 0 && maker < nranks ? maker : static_cast<int>(k % static_cast<std::size_t>(nranks));
+    if (by != rank) continue;
+    const Scene::MeshView v = scene.view_mesh(k);  // a copy placed for the moment, not held
+    sums[k] = object_edge_sum(v.get(), own);
     len.insert(len.end(), own.begin(), own.end());
   }
-  MPI_Allreduce(MPI_IN_PLACE, sums.data(), static_cast<int>(sums.size()), MPI_DOUBLE, MPI_SUM, comm_);
+  if (nranks > 1) MPI_Allreduce(MPI_IN_PLACE, sums.data(), static_cast<int>(sums.size()), MPI_DOUBLE, MPI_SUM, comm);
   std::int64_t total = 0;
-  for (std::size_t k = 0; k < scene_.objects.size(); ++k) total += 6 * static_cast<std::int64_t>(scene_.shape(k).tets);
+  for (std::size_t k = 0; k < scene.objects.size(); ++k) total += 6 * static_cast<std::int64_t>(scene.shape(k).tets);
   mean = mean_of_object_sums(sums, total);
-  return total > 0 ? kth_smallest(comm_, len, total / 2) : 0;
+  return total > 0 ? kth_smallest(comm, len, total / 2) : 0;
 }
 
 void Simulator::hand_over_made_meshes() {

@@ -189,7 +189,7 @@ TEST(Bench, SetupStagesAddUpToTheSetup) {
   BenchOptions opt;
   opt.steps = 1;
   opt.quiet = true;
-  const std::vector<std::string> names = {"partition", "hand-over", "world", "edge statistics", "halo", "components",
+  const std::vector<std::string> names = {"edge statistics", "partition", "hand-over", "world", "halo", "components",
                                           "ghosts", "initial overlaps", "split plan", "start"};
   bool covered = false;
   std::string gaps;

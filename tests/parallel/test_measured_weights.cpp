@@ -6,10 +6,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
 #include <vector>
 
 #include "softcontact/error.hpp"
+#include "softcontact/memory.hpp"
+#include "softcontact/partition.hpp"
 #include "softcontact/rebalance.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/split_forces.hpp"
@@ -259,19 +262,30 @@ TEST(SplitParts, HalfAShareEachAtMostOnePerRank) {
 namespace {
 
 // A floor of 350 tets under 65 cubes of 10 (1,000 tets; the floor 35 %), shapes only.
+// An object made by hand of its shape alone (no mesh: the partition reads shapes), its
+// box appended to `boxes`.
+void add_shape(Scene& s, std::vector<Box>& boxes, std::size_t tets, std::size_t vertices, std::size_t triangles, Box b,
+               bool kinematic = false) {
+  SceneObject o;
+  ObjectShape sh;
+  sh.tets = tets;
+  sh.vertices = vertices;
+  sh.triangles = triangles;
+  sh.box = b;
+  o.shape = sh;
+  if (kinematic) {
+    ObjectTraits t;
+    t.kinematic = true;
+    o.set_traits(t);
+  }
+  s.objects.push_back(std::move(o));
+  boxes.push_back(b);
+}
+
 Scene floor_and_cubes(std::vector<Box>& boxes) {
   Scene s;
   s.materials.resize(1);
-  auto add = [&](std::size_t tets, Box b) {
-    SceneObject o;
-    ObjectShape sh;
-    sh.tets = tets;
-    sh.vertices = tets;
-    sh.box = b;
-    o.shape = sh;
-    s.objects.push_back(std::move(o));
-    boxes.push_back(b);
-  };
+  auto add = [&](std::size_t tets, Box b) { add_shape(s, boxes, tets, tets, 0, b); };
   add(350, Box{{0, 0, -1}, {13, 5, 0}});
   for (int i = 0; i < 65; ++i) {
     const double x = i % 13, y = i / 13;
@@ -331,4 +345,70 @@ TEST(SplitParts, ThePartitionKeepsRoomForThePartsAndTheirRanksTakeThem) {
   const std::vector<int> three = partition_at(s, boxes, 3, {}, MPI_COMM_NULL, &placed);
   EXPECT_EQ(placed, (SplitHosts{{0, 1, 2}}));
   EXPECT_EQ(split_hosts(s, three, 3), (SplitHosts{{0, 1, 2}}));
+}
+
+namespace {
+
+// 16 bodies (500 tets, 150 vertices) in a 4 x 4 cluster of 0.2 m boxes, and a crowd of
+// 400 kinematic boxes (6 tets, 8 vertices, 12 triangles: work 1) of 0.02 m, 0.05 m apart
+// in a 20 x 20 lattice far away: the median object size (0.02 m) is below the gap
+// between the crowd's boxes (0.03 m).
+Scene bodies_and_a_crowd(std::vector<Box>& boxes) {
+  Scene s;
+  s.materials.resize(1);
+  auto add = [&](std::size_t tets, std::size_t vertices, std::size_t triangles, Box b, bool kinematic) {
+    add_shape(s, boxes, tets, vertices, triangles, b, kinematic);
+  };
+  for (int i = 0; i < 16; ++i) {
+    const double x = 0.25 * (i % 4), y = 0.25 * (i / 4);
+    add(500, 150, 200, Box{{x, y, 0}, {x + 0.2, y + 0.2, 0.2}}, false);
+  }
+  for (int i = 0; i < 400; ++i) {
+    const double x = 10 + 0.05 * (i % 20), y = 10 + 0.05 * (i / 20);
+    add(6, 8, 12, Box{{x, y, 10}, {x + 0.02, y + 0.02, 10.02}}, true);
+  }
+  return s;
+}
+
+// The crowd's boxes within `skin` of a box on another rank: those another rank ghosts
+// (GhostSet's rule, Box::within), by testing every pair.
+double crowd_ghosted(const std::vector<Box>& boxes, const std::vector<int>& part, double skin) {
+  std::vector<char> ghosted(boxes.size(), 0);
+  for (std::size_t i = 16; i < boxes.size(); ++i)
+    for (std::size_t j = 0; j < boxes.size(); ++j)
+      if (part[i] != part[j] && boxes[i].within(boxes[j], skin)) ghosted[i] = 1;
+  return static_cast<double>(std::count(ghosted.begin(), ghosted.end(), 1)) / static_cast<double>(boxes.size() - 16);
+}
+
+}  // namespace
+
+// The partition on 4 ranks balances the memory the owners hold (owned_state_bytes of each
+// object's tets and vertices) as well as the work: no rank holds the crowd of kinematic
+// boxes alone (reference: their memory is 53 % of the scene's, so one rank holding them
+// would be at 2.1 times the mean). With the ghosts' skin (0.036 m, above the crowd's
+// gap) as the graph's least reach, the crowd is cut into compact pieces: at most 35 % of
+// its boxes are within the skin of another rank's (each rank ghosts those). Without it
+// the crowd has no edges and METIS scatters it by balance: most of it is ghosted.
+TEST(Rebalance, ThePartitionSpreadsTheMemoryOfKinematicObjectsAndJoinsWhatTheGhostsWillSee) {
+  std::vector<Box> boxes;
+  const Scene s = bodies_and_a_crowd(boxes);
+  const double skin = 0.036;
+  const std::vector<int> part = partition_at(s, boxes, 4, {}, MPI_COMM_NULL, nullptr, skin);
+  std::vector<double> work(4, 0.0), memory(4, 0.0);
+  double total_memory = 0;
+  for (std::size_t k = 0; k < s.objects.size(); ++k) {
+    const ObjectShape& sh = *s.objects[k].shape;
+    const double m = owned_state_bytes(static_cast<double>(sh.tets), static_cast<double>(sh.vertices));
+    memory[static_cast<std::size_t>(part[k])] += m;
+    total_memory += m;
+    work[static_cast<std::size_t>(part[k])] += k < 16 ? 500 : 1;
+  }
+  EXPECT_LE(imbalance(memory), kMemoryTolerance + 0.07) << "one body's memory is 0.05 of the mean";
+  EXPECT_LE(imbalance(work), 1.25 + 0.01) << "bodies of 500 of 2,000 per rank are the granularity";
+  const double ghosted = crowd_ghosted(boxes, part, skin);
+  EXPECT_LE(ghosted, 0.35);
+  const double scattered = crowd_ghosted(boxes, partition_at(s, boxes, 4), skin);
+  EXPECT_GT(scattered, 0.5) << "the crowd was compact without the least reach: the test proves nothing";
+  std::printf("  memory imbalance %.3f, work imbalance %.3f; crowd ghosted %.3f (without the least reach %.3f)\n",
+              imbalance(memory), imbalance(work), ghosted, scattered);
 }

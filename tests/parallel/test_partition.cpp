@@ -461,3 +461,121 @@ TEST(PartitionGroups, GroupedPartitionBalancesWithACutNearTheWholeGraphs) {
     EXPECT_EQ(partition_objects_grouped(*in, 8), partition_objects(*in, 8));
   }
 }
+
+namespace {
+
+// 64 bodies (work 500, memory 287,000: 500 tets and 150 vertices of the memory model) in
+// a 4 x 4 x 4 cluster of touching unit boxes, and a crowd of 2,000 kinematic boxes (work
+// 1, memory 12,832: 6 tets, 8 vertices) in a 20 x 20 x 5 lattice of touching unit boxes
+// far away; reach 0.5, so the lattice's neighbours are joined.
+PartitionInput bodies_and_crowd() {
+  PartitionInput in;
+  in.reach = 0.5;
+  for (int k = 0; k < 4; ++k)
+    for (int j = 0; j < 4; ++j)
+      for (int i = 0; i < 4; ++i) {
+        in.box.push_back(unit_box(i, j, k));
+        in.weight.push_back(500);
+        in.memory.push_back(287000);
+      }
+  for (int k = 0; k < 5; ++k)
+    for (int j = 0; j < 20; ++j)
+      for (int i = 0; i < 20; ++i) {
+        in.box.push_back(unit_box(100 + i, j, k));
+        in.weight.push_back(1);
+        in.memory.push_back(12832);
+      }
+  return in;
+}
+
+// The crowd's boxes with a lattice neighbour (within reach) on another part: those that
+// some other part ghosts. By testing every pair.
+double crowd_fraction_ghosted(const PartitionInput& in, const std::vector<int>& part) {
+  std::vector<char> ghosted(in.box.size(), 0);
+  for (std::size_t i = 64; i < in.box.size(); ++i)
+    for (std::size_t j = i + 1; j < in.box.size(); ++j) {
+      if (part[i] == part[j] || !in.box[i].within(in.box[j], in.reach)) continue;
+      ghosted[i] = ghosted[j] = 1;
+    }
+  return static_cast<double>(std::count(ghosted.begin(), ghosted.end(), 1)) / static_cast<double>(in.box.size() - 64);
+}
+
+}  // namespace
+
+// Memory as a second constraint (PartitionInput::memory). By work alone, METIS puts the
+// crowd (work 2,000 of 34,000) on one or two parts, and that part holds most of the
+// memory (reference: the memory imbalance of the work-only partition, above 1.5). With
+// the memory given, each of 4 parts holds within kMemoryTolerance of the mean memory plus
+// one body (0.03 of the mean), the work stays within max(the work-only partition's,
+// 1.03) + 0.01 (the rule), and the crowd is cut into compact pieces: at most 35 % of its
+// boxes have a neighbour on another part (two planes through a 20 x 20 x 5 lattice: 20 %;
+// scattered by balance alone: nearly all).
+TEST(PartitionMemory, ACrowdOfKinematicBoxesSpreadsWithoutCostingTheWorksBalance) {
+  const PartitionInput in = bodies_and_crowd();
+  PartitionInput work_only = in;
+  work_only.memory.clear();
+  const std::vector<int> by_work = partition_objects(work_only, 4);
+  const PartitionQuality q0 = partition_quality(in, by_work, 4);
+  EXPECT_GT(q0.memory_imbalance, 1.5) << "the work alone balances the memory: the test proves nothing";
+  const std::vector<int> part = partition_objects(in, 4);
+  const PartitionQuality q = partition_quality(in, part, 4);
+  EXPECT_LE(q.memory_imbalance, kMemoryTolerance + 0.03);
+  EXPECT_LE(q.imbalance, std::max(q0.imbalance, 1.03) + 0.01 + 1e-12);
+  const double ghosted = crowd_fraction_ghosted(in, part);
+  EXPECT_LE(ghosted, 0.35);
+  EXPECT_EQ(partition_objects(in, 4), part) << "deterministic";
+  std::printf("  by work: imbalance %.4f, memory %.4f; with memory: imbalance %.4f, memory %.4f, crowd ghosted %.3f\n",
+              q0.imbalance, q0.memory_imbalance, q.imbalance, q.memory_imbalance, ghosted);
+  // The same memory, all of it in one body: no partition can balance it, and the one by
+  // work is kept (METIS, asked to, gives up the work's balance).
+  PartitionInput giant = in;
+  giant.memory[0] = 100 * std::accumulate(in.memory.begin(), in.memory.end(), std::int64_t{0});
+  PartitionInput giant_work_only = giant;
+  giant_work_only.memory.clear();
+  EXPECT_EQ(partition_objects(giant, 4), partition_objects(giant_work_only, 4));
+  // Malformed memory: a size that is not the objects', a negative entry.
+  PartitionInput bad = in;
+  bad.memory.pop_back();
+  EXPECT_THROW(partition_objects(bad, 2), RuntimeFailure);
+  bad = in;
+  bad.memory[5] = -1;
+  EXPECT_THROW(partition_objects(bad, 2), RuntimeFailure);
+}
+
+// group_objects with memory: the cut of each bisection minimises the larger of the two
+// sums' distances from their shares, relative to their totals. Reference: every cut
+// position of the sorted objects tried (one bisection, 2 parts of 1 each). 100 light
+// objects with little memory along x, then 100 with work like theirs and 100 times the
+// memory: the cut by work alone (after object 100) would give one side 1 % of the memory.
+TEST(PartitionGroups, WithMemoryTheCutBalancesTheWorseOfTheTwo) {
+  PartitionInput in;
+  in.reach = 0.5;
+  for (int i = 0; i < 200; ++i) {
+    in.box.push_back(unit_box(2 * i, 0, 0));
+    in.weight.push_back(10);
+    in.memory.push_back(i < 100 ? 10 : 1000);
+  }
+  const PartGroups g = group_objects(in, 2, 1);
+  ASSERT_EQ(g.first.size(), 2u);
+  std::size_t lower = 0;
+  while (lower < 200 && g.group[lower] == 0) ++lower;
+  for (std::size_t i = lower; i < 200; ++i) ASSERT_EQ(g.group[i], 1) << "one cut along x";
+  const double W = 2000, M = 101000;
+  std::size_t best = 1;
+  double best_off = 1e300;
+  for (std::size_t c = 1; c < 200; ++c) {
+    const double w = 10.0 * static_cast<double>(c);
+    const double m = c <= 100 ? 10.0 * static_cast<double>(c) : 1000.0 + 1000.0 * static_cast<double>(c - 100);
+    const double off = std::max(std::abs(w - W / 2) / W, std::abs(m - M / 2) / M);
+    if (off < best_off) {
+      best_off = off;
+      best = c;
+    }
+  }
+  EXPECT_EQ(lower, best);
+  EXPECT_LT(best_off, 0.2);
+  PartitionInput work_only = in;
+  work_only.memory.clear();
+  const PartGroups g0 = group_objects(work_only, 2, 1);
+  EXPECT_EQ(std::count(g0.group.begin(), g0.group.end(), 0), 100) << "by work alone: the middle";
+}

@@ -23,6 +23,7 @@
 #include "softcontact/run.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/simulator.hpp"
+#include "softcontact/stepper.hpp"
 
 using namespace softcontact;
 
@@ -157,6 +158,37 @@ TEST(SingleCopyRead, OneRankMakesEachEntryAndEveryRankKnowsItToTheBit) {
   MPI_Allreduce(MPI_IN_PLACE, &held_all, 1, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);
   EXPECT_EQ(held_all, static_cast<long>(made_once.size())) << "each single-copy mesh made by exactly one rank";
   expect_as_one_rank(one, shared);  // after the holding check: it makes the meshes not held
+}
+
+// The scene's edge statistics before the partition (scene_edge_statistics): each object's
+// edges measured by the rank that made its mesh, or by rank k % ranks, so that no rank
+// makes a mesh it does not hold. The median and mean are, to the bit, those of one rank
+// measuring every mesh itself (and the mean scene_mean_edge's, which the detector's cell
+// was before), and no rank holds one mesh more afterwards.
+TEST(SingleCopyRead, EdgeStatisticsBeforeThePartitionAreOneRanksWithoutHoldingAMeshMore) {
+  const std::string path = write_scene("good.yaml", good_scene());
+  const Scene one = load_scene(path);
+  const Scene shared = load_scene(path, copies_made_on_demand(MPI_COMM_WORLD));
+  auto held = [](const Scene& s) {
+    std::vector<char> h;
+    for (const SceneObject& o : s.objects) h.push_back(o.mesh.points.empty() ? 0 : 1);
+    return h;
+  };
+  const std::vector<char> before = held(shared);
+  double mean = 0, mean_one = 0;
+  const double median = scene_edge_statistics(MPI_COMM_WORLD, shared, mean);
+  const double median_one = scene_edge_statistics(MPI_COMM_SELF, one, mean_one);
+  EXPECT_EQ(bits(median), bits(median_one));
+  EXPECT_EQ(bits(mean), bits(mean_one));
+  EXPECT_EQ(bits(mean), bits(scene_mean_edge(one)));
+  EXPECT_GT(median, 0.0);
+  EXPECT_EQ(held(shared), before) << "a rank kept a mesh it measured for the moment";
+  // On a communicator of one rank (a reference run of the tests), the makers of the other
+  // ranks are not its ranks: this rank measures every object.
+  double mean_self = 0;
+  EXPECT_EQ(bits(scene_edge_statistics(MPI_COMM_SELF, shared, mean_self)), bits(median_one));
+  EXPECT_EQ(bits(mean_self), bits(mean_one));
+  EXPECT_EQ(held(shared), before);
 }
 
 // A mesh file that cannot be read, named by an entry another rank reads: every rank stops
