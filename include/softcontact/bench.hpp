@@ -98,6 +98,10 @@ struct BenchResult {
   PhaseTimes phase_rank_max, phase_rank_mean;
   /// Collision records whose triangle lies on another rank's object / all records.
   double cross_rank_fraction = 0;
+  /// The partition at the end of the timed steps by the static weights the initial
+  /// partition balances (partition_loads, rebalance.hpp): max / mean over ranks of the
+  /// work (tets) and of the memory the owners hold (the memory model's owned state).
+  double static_work_imbalance = 1, static_memory_imbalance = 1;
   /// Objects split for their forces (at the end), and their exchanges: bytes sent per
   /// timed step by one rank (max over ranks), tets a rank evaluates for another rank's
   /// object (max over ranks).

@@ -89,6 +89,19 @@ std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes,
 /// rank.
 SplitHosts split_hosts(const Scene& scene, const std::vector<int>& partition, int nranks);
 
+/// What a partition gives each rank by the static weights the initial partition balances:
+/// per rank, its work (its objects' static work; a split object's parts at its static
+/// work / parts on each rank that evaluates one, `hosts`) and its memory (owned_state_bytes:
+/// an owned object's tets and vertices; a split object's owner all its vertices and a
+/// part's share, each other host rank a part's share). Ghosts are not counted. The
+/// imbalances are max / mean (1 when the total is 0).
+struct PartitionLoads {
+  std::vector<double> work, memory;
+  double work_imbalance = 1, memory_imbalance = 1;
+};
+PartitionLoads partition_loads(const Scene& scene, const std::vector<int>& partition, const SplitHosts& hosts,
+                               int nranks);
+
 /// Whether `hosts` can stand for split_hosts(scene, partition, nranks): one list per split
 /// object, as many parts, part 0 on the object's owner, every rank in [0, nranks). What
 /// the Simulator and a restart check hosts handed to them against.

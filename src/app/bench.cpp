@@ -225,6 +225,9 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
     r.compute_imbalance = csum > 0 ? cmax / (csum / size) : 1;
     r.cpu_imbalance = usum > 0 ? umax / (usum / size) : 1;
     r.cross_rank_fraction = cr[1] > 0 ? static_cast<double>(cr[0]) / static_cast<double>(cr[1]) : 0;
+    const PartitionLoads loads = partition_loads(scene, sim.partition(), sim.split_hosts(), size);
+    r.static_work_imbalance = loads.work_imbalance;
+    r.static_memory_imbalance = loads.memory_imbalance;
     r.ghost_rebuilds = sim.ghost_rebuilds() - rebuilds0;
     const std::int64_t tests = sim.ghost_reach_tests() - tests0;
     r.ghost_tests = tests;
@@ -384,7 +387,10 @@ void print_bench_table(std::ostream& out, const BenchResult& r) {
         << r.split_helping_parts << " helping parts take the positions from their ghost rows\n";
   if (r.ranks > 1)
     out << "  load imbalance (compute, max/mean over ranks): wall " << fixed(r.compute_imbalance, 3) << ", CPU "
-        << fixed(r.cpu_imbalance, 3) << "; collisions crossing ranks: " << fixed(100 * r.cross_rank_fraction, 1) << "%\n";
+        << fixed(r.cpu_imbalance, 3) << "; collisions crossing ranks: " << fixed(100 * r.cross_rank_fraction, 1) << "%\n"
+        << "  partition by static weights (max/mean over ranks): work " << fixed(r.static_work_imbalance, 3)
+        << " (tets; kinematic objects a tenth of their triangles), memory " << fixed(r.static_memory_imbalance, 3)
+        << " (the owners' state by the memory model; ghosts not counted)\n";
   if (r.ranks > 1) {
     out << "  per phase, a rank's ms per step (max / mean over ranks):";
     bool first = true;
@@ -405,7 +411,7 @@ std::string bench_csv_header() {
   for (const PhaseColumn& p : kPhases) h += std::string(",") + p.column + "_ms_median," + p.column + "_ms_mean";
   h += ",steps_per_second,setup_s,rss_max_mib,rss_mean_mib,omp_wait_policy,halo_bytes_max,halo_bytes_mean,"
        "compute_imbalance,cross_rank_fraction,ghost_rebuilds,cpu_imbalance,read_s,halo_rounds_max,heap_read_mib,"
-       "heap_setup_mib";
+       "heap_setup_mib,static_work_imbalance,static_memory_imbalance";
   return h;
 }
 
@@ -426,7 +432,8 @@ std::string bench_csv_row(const BenchResult& r) {
     << num(r.halo_rounds_max);
   // The heap figures are left empty where the C library cannot tell them.
   auto mib = [](double bytes) { return bytes < 0 ? std::string() : num(bytes / (1024.0 * 1024.0)); };
-  s << ',' << mib(r.heap_after_read_max) << ',' << mib(r.heap_setup_max());
+  s << ',' << mib(r.heap_after_read_max) << ',' << mib(r.heap_setup_max()) << ',' << num(r.static_work_imbalance) << ','
+    << num(r.static_memory_imbalance);
   return s.str();
 }
 

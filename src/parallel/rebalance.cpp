@@ -35,10 +35,15 @@ std::vector<int> parts_per_object(const Scene& scene, int nranks) {
 }
 
 // A split object's force work is shared by the ranks evaluating its parts
-// (split_forces.hpp); its owner evaluates one of them. `parts`: parts_per_object.
-std::int64_t shared_work(const Scene& scene, std::size_t k, const std::vector<int>& parts) {
+// (split_forces.hpp); its owner evaluates one of them. `parts`: parts_per_object. An
+// object with a part on every rank loads every rank alike, which the partition need not
+// balance: none of its work is the owner's node's. (Until 2026-11-29 the owner's node
+// carried its part, which no other rank's did: soft_floor on 4 ranks left the owner with
+// a fifth of the bodies the others had, 1.14 times the mean work.)
+std::int64_t shared_work(const Scene& scene, std::size_t k, const std::vector<int>& parts, int nranks) {
   const std::int64_t w = static_work(scene, k);
-  return parts[k] > 0 ? w / parts[k] : w;
+  if (parts[k] <= 0) return w;
+  return parts[k] >= nranks ? 0 : w / parts[k];
 }
 
 // The other parts of the split objects cut into fewer parts than ranks, in split_hosts'
@@ -94,7 +99,7 @@ SplitHosts split_hosts(const Scene& scene, const std::vector<int>& partition, in
   for (std::size_t k = 0; k < no; ++k) {
     if (partition[k] < 0 || partition[k] >= nranks)
       throw RuntimeFailure("split_hosts: object " + std::to_string(k) + " on rank " + std::to_string(partition[k]));
-    load[static_cast<std::size_t>(partition[k])] += shared_work(scene, k, parts);
+    load[static_cast<std::size_t>(partition[k])] += shared_work(scene, k, parts, nranks);
   }
   for (std::size_t k = 0; k < no; ++k) {
     if (parts[k] <= 0) continue;
@@ -111,6 +116,51 @@ SplitHosts split_hosts(const Scene& scene, const std::vector<int>& partition, in
     hosts.push_back(std::move(h));
   }
   return hosts;
+}
+
+PartitionLoads partition_loads(const Scene& scene, const std::vector<int>& partition, const SplitHosts& hosts,
+                               int nranks) {
+  const std::size_t no = scene.objects.size();
+  if (partition.size() != no || nranks < 1)
+    throw RuntimeFailure("partition_loads: a partition of " + std::to_string(partition.size()) + " objects for " +
+                         std::to_string(no) + " on " + std::to_string(nranks) + " ranks");
+  PartitionLoads l;
+  l.work.assign(static_cast<std::size_t>(nranks), 0.0);
+  l.memory.assign(static_cast<std::size_t>(nranks), 0.0);
+  const std::vector<int> parts = nranks > 1 ? parts_per_object(scene, nranks) : std::vector<int>(no, 0);
+  auto rank_of = [&](int r) {
+    if (r < 0 || r >= nranks) throw RuntimeFailure("partition_loads: rank " + std::to_string(r) + " out of range");
+    return static_cast<std::size_t>(r);
+  };
+  std::size_t split = 0;
+  for (std::size_t k = 0; k < no; ++k) {
+    const std::size_t owner = rank_of(partition[k]);
+    l.memory[owner] += static_cast<double>(owner_memory(scene, k, parts));
+    if (parts[k] <= 0) {
+      l.work[owner] += static_cast<double>(static_work(scene, k));
+      continue;
+    }
+    // Its parts, on the ranks that evaluate them (the owner's own among them: the first of
+    // the hosts, or its place among every rank), whose memory the owner's counts already.
+    if (split >= hosts.size()) throw RuntimeFailure("partition_loads: fewer split hosts than split objects");
+    bool owner_seen = false;
+    for (int r : hosts[split++]) {
+      l.work[rank_of(r)] += static_cast<double>(static_work(scene, k) / parts[k]);
+      if (rank_of(r) == owner && !owner_seen) owner_seen = true;
+      else l.memory[rank_of(r)] += static_cast<double>(state_bytes(scene, k, parts[k]));
+    }
+  }
+  auto imbalance = [&](const std::vector<double>& v) {
+    double most = 0, sum = 0;
+    for (double x : v) {
+      most = std::max(most, x);
+      sum += x;
+    }
+    return sum > 0 ? most / (sum / nranks) : 1.0;
+  };
+  l.work_imbalance = imbalance(l.work);
+  l.memory_imbalance = imbalance(l.memory);
+  return l;
 }
 
 bool split_hosts_fit(const Scene& scene, const std::vector<int>& partition, int nranks, const SplitHosts& hosts) {
@@ -132,7 +182,7 @@ std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector
   std::vector<std::int64_t> w(no);
   const int nranks = std::max(1, static_cast<int>(rank_seconds.size()));
   const std::vector<int> parts = parts_per_object(scene, nranks);
-  for (std::size_t k = 0; k < no; ++k) w[k] = shared_work(scene, k, parts) + 1;
+  for (std::size_t k = 0; k < no; ++k) w[k] = shared_work(scene, k, parts, nranks) + 1;
   const PartNodes nodes = part_nodes(scene, nranks, parts);
   for (std::int64_t p : nodes.work) w.push_back(p + 1);
   bool measured = !rank_seconds.empty();
@@ -341,7 +391,7 @@ std::vector<int> partition_at(const Scene& scene, std::vector<Box> boxes, int nr
   in.weight = std::move(weights);
   in.memory.reserve(nn);
   for (std::size_t k = 0; k < no; ++k) {
-    if (tet_weights) in.weight.push_back(shared_work(scene, k, parts));
+    if (tet_weights) in.weight.push_back(shared_work(scene, k, parts, nranks));
     in.memory.push_back(owner_memory(scene, k, parts));
     for (int d = 0; d < 3; ++d)
       if (!std::isfinite(boxes[k].lo[d]) || !std::isfinite(boxes[k].hi[d]) || !(boxes[k].lo[d] <= boxes[k].hi[d]))

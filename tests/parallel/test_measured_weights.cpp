@@ -324,6 +324,20 @@ TEST(SplitParts, ThePartitionKeepsRoomForThePartsAndTheirRanksTakeThem) {
       work[static_cast<std::size_t>(r)] += 350 / 3;
     }
     EXPECT_LE(imbalance(work), 1.05) << "work per rank " << work[0] << " " << work[1] << " " << work[2] << " " << work[3];
+    // partition_loads, the figures bench reports: the same work per rank, and the memory
+    // by hand: each cube's owned_state_bytes(10 tets, 10 vertices) on its rank; the floor's
+    // owner all its 350 vertices, and each of the 3 hosts a third of its tets and vertices.
+    const PartitionLoads loads = partition_loads(s, part, hosts, 4);
+    std::vector<double> memory(4, 0.0);
+    for (std::size_t k = 1; k < s.objects.size(); ++k) memory[static_cast<std::size_t>(part[k])] += owned_state_bytes(10, 10);
+    memory[static_cast<std::size_t>(part[0])] += owned_state_bytes(0, 350);
+    for (int r : hosts[0]) memory[static_cast<std::size_t>(r)] += std::round(owned_state_bytes(350, 350) / 3);
+    for (std::size_t r = 0; r < 4; ++r) {
+      EXPECT_DOUBLE_EQ(loads.work[r], work[r]) << "rank " << r;
+      EXPECT_NEAR(loads.memory[r], memory[r], 1.0) << "rank " << r;
+    }
+    EXPECT_DOUBLE_EQ(loads.work_imbalance, imbalance(work));
+    EXPECT_NEAR(loads.memory_imbalance, imbalance(memory), 1e-9);
   }
   EXPECT_EQ(split_hosts(s, part, 4), split_hosts(s, part, 4)) << "deterministic";
   // Measured weights: the parts are nodes too, after the objects, and each rank's nodes
@@ -345,6 +359,16 @@ TEST(SplitParts, ThePartitionKeepsRoomForThePartsAndTheirRanksTakeThem) {
   const std::vector<int> three = partition_at(s, boxes, 3, {}, MPI_COMM_NULL, &placed);
   EXPECT_EQ(placed, (SplitHosts{{0, 1, 2}}));
   EXPECT_EQ(split_hosts(s, three, 3), (SplitHosts{{0, 1, 2}}));
+  // There the owner's own part is its place among the ranks: each rank a third of the floor.
+  const PartitionLoads loads3 = partition_loads(s, three, placed, 3);
+  std::vector<double> work3(3, 350 / 3);
+  for (std::size_t k = 1; k < s.objects.size(); ++k) work3[static_cast<std::size_t>(three[k])] += 10;
+  for (std::size_t r = 0; r < 3; ++r) EXPECT_DOUBLE_EQ(loads3.work[r], work3[r]) << "rank " << r;
+  // Every rank evaluates a third of the floor, so the partition balances the cubes alone:
+  // within one cube (10 of 333 per rank). With the owner's part in its node and no other
+  // rank's, METIS gave the owner (116 + c) = the others' c': 1.115 times the mean.
+  EXPECT_LE(loads3.work_imbalance, 1.05);
+  EXPECT_THROW((void)partition_loads(s, three, {}, 3), RuntimeFailure) << "a split object without hosts";
 }
 
 namespace {
