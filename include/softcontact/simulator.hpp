@@ -46,8 +46,7 @@ struct LocalCheck;
 /// once per tet, before the objects are given out: each object's edges are measured by
 /// the rank that made its mesh while the scene was read (SceneObject::maker, when it is a
 /// rank of `comm`), or else by rank k % ranks (a mesh not held there made for the moment,
-/// not kept). The same values, to the bit,
-/// on any rank count. Collective.
+/// not kept). The same values, to the bit, on any rank count. Collective.
 double scene_edge_statistics(MPI_Comm comm, const Scene& scene, double& mean);
 
 class Simulator {

@@ -25,6 +25,9 @@
 #include "softcontact/fault.hpp"
 #include "softcontact/memory.hpp"
 #include "softcontact/mpi_util.hpp"
+#include "softcontact/rebalance.hpp"
+#include "softcontact/simulator.hpp"
+#include "softcontact/stepper.hpp"
 #include "softcontact/run.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/surface.hpp"
@@ -379,6 +382,23 @@ void print_split_objects(const Scene& s, int ranks, std::ostream& out) {
   out << "\n";
 }
 
+// The initial partition a run on `ranks` ranks would make (computed here on one process:
+// the same answer), and what it gives each rank by its static weights. Collective over
+// `comm` (the edge statistics); printed by rank 0.
+void print_partition_loads(MPI_Comm comm, const Scene& s, int ranks, std::ostream& out) {
+  if (ranks <= 1) return;
+  double mean_edge = 0;
+  (void)scene_edge_statistics(comm, s, mean_edge);
+  if (comm_rank(comm) != 0) return;
+  SplitHosts hosts;
+  const std::vector<int> part =
+      initial_partition(s, ranks, MPI_COMM_NULL, &hosts, collision_settings_for(s, mean_edge).cell_size);
+  const PartitionLoads l = partition_loads(s, part, hosts, ranks);
+  out << "  partition on " << ranks << " ranks (max / mean over ranks of the static weights, docs/architecture.md, "
+      << "\"Partition\"): work imbalance " << std::fixed << std::setprecision(3) << l.work_imbalance
+      << ", memory imbalance " << l.memory_imbalance << std::defaultfloat << "\n";
+}
+
 int cmd_check(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err) {
   const Scene s = load_scene(scene_argument(a, "check"));
   const int rank = comm_rank(comm), size = comm_size(comm);
@@ -392,6 +412,7 @@ int cmd_check(const Args& a, MPI_Comm comm, std::ostream& out, std::ostream& err
         << " (docs/reliability.md, \"Memory\")\n";
     print_split_objects(s, ranks, out);
   }
+  print_partition_loads(comm, s, ranks, out);
   // The limits are this process's: they say something for a run on this node.
   check_memory_fits(comm, mem, s.path);
   if (rank == 0) out << "scene is valid\n";

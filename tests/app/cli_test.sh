@@ -39,6 +39,9 @@ expect 0 'stable explicit time step' -- "$exe" check "$data/scenes/small.yaml"
 expect 0 "split for their forces .*'floor' \(.* 52\.. % of the scene\) on 2 ranks" -- "$exe" check "$data/scenes/soft_floor.yaml" --ranks 2
 expect 0 "split for their forces .*none on 1 rank\(s\); the largest deformable object, 'floor' .* would be from 2 ranks on" -- "$exe" check "$data/scenes/soft_floor.yaml"
 expect 0 "split for their forces .*none on 3 rank\(s\); the largest deformable object, 'cube\[0\]' \(25\.0 % of the tets\), would be from 5 ranks on" -- "$exe" check "$data/scenes/small.yaml" --ranks 3
+# check --ranks N: the partition a run on N ranks would make, by its static weights
+# (4,096 equal boxes on 3 ranks: both imbalances within METIS's 1.03 of the mean).
+expect 0 "partition on 3 ranks .*work imbalance 1\.0[0-2][0-9], memory imbalance 1\.0[0-2][0-9]" -- "$exe" check "$data/scenes/many_objects.yaml" --ranks 3
 [ ! -e output ] && ok || bad "check wrote output"
 
 # run: output files, frames at steps 0,5,10,15,20
