@@ -208,10 +208,11 @@ void Simulator::follow_ghosts() {
   trim_dropped();
 }
 
-// The mean and median of the scene's tet edges from each rank's own objects: no rank
-// reads the meshes of the whole scene or holds its lengths. The mean is the objects' sums
-// in scene order (mean_of_object_sums; each sum comes from its owner, the others add
-// exact zeros), the median an exact selection over the ranks (kth_smallest).
+// The mean and median of the scene's tet edges, each object's measured by one rank (its
+// mesh's maker, or rank k % ranks): no rank reads the meshes of the whole scene or holds
+// its lengths. The mean is the objects' sums in scene order (mean_of_object_sums; each
+// sum comes from one rank, the others add exact zeros), the median an exact selection
+// over the ranks (kth_smallest).
 double scene_edge_statistics(MPI_Comm comm, const Scene& scene, double& mean) {
   const int rank = comm_rank(comm), nranks = comm_size(comm);
   std::vector<double> sums(scene.objects.size(), 0.0), len, own;
