@@ -41,6 +41,11 @@ inline constexpr double kMemoryTolerance = 1.10;
 /// The memory imbalance of the partition by work above which it is partitioned again
 /// with the memory as a second constraint (partition_objects).
 inline constexpr double kMemoryImbalanceTrigger = 1.5;
+/// The work imbalance of METIS's partition above which objects are moved out of the
+/// heaviest part, the cheapest in cut first, until it is within 1.03 or no move lowers
+/// it (partition_objects). Below it METIS's cut stands: a pile of 12 objects on 2 ranks at
+/// 1.094 balanced to 1.062 had both ranks ghost every object.
+inline constexpr double kRepairTrigger = 1.10;
 
 struct PartitionQuality {
   double imbalance = 1;          ///< max part weight / mean part weight (1 is perfect)
@@ -121,6 +126,19 @@ inline constexpr int kMetisCuts = 4;
 /// work's balance for it (inputs/archway.yaml on 4 ranks: 1.03 to 1.39). The scenes
 /// shipped keep their partitions on 2, 4 and 8 ranks (docs/benchmarks.md, "memory as a
 /// second constraint").
+///
+/// Where METIS's smallest cut leaves the work of a part above kRepairTrigger times the
+/// mean (few objects, whose granularity no split within 1.03 fits), objects move out of
+/// the heaviest part one at a time, while some move leaves both the part it leaves and
+/// the part it joins below the heaviest part's load: the move adding the least cut
+/// weight (its edges into the part it leaves minus those into the part it joins), then
+/// the one leaving the lower larger load, then the lowest object and part; moves that
+/// raise the memory's largest part above the larger of its current load and
+/// kMemoryImbalanceTrigger times the mean (kMemoryTolerance where the memory was a
+/// constraint: what METIS balanced stays balanced) are not made; it stops at 1.03. A
+/// greedy repair, not an optimum: above kRepairTrigger (and without memory), no single
+/// move out of the heaviest part lowers it (tests/parallel/test_partition.cpp,
+/// "PartitionRepair").
 ///
 /// Weights whose total would overflow METIS' idx_t are scaled down (each kept >= 1).
 /// Throws RuntimeFailure for malformed input (sizes, negative weight, non-finite or

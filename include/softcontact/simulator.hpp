@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -42,12 +43,17 @@ struct StepDiagnostics;
 class GhostSet;
 struct LocalCheck;
 
-/// The scene's median edge (returned) and mean edge (`mean`) [m], tets' edges counted
-/// once per tet, before the objects are given out: each object's edges are measured by
-/// the rank that made its mesh while the scene was read (SceneObject::maker, when it is a
-/// rank of `comm`), or else by rank k % ranks (a mesh not held there made for the moment,
-/// not kept). The same values, to the bit, on any rank count. Collective.
-double scene_edge_statistics(MPI_Comm comm, const Scene& scene, double& mean);
+/// The scene's tet edges' median and mean [m], edges counted once per tet.
+struct EdgeStatistics {
+  double median = 0;
+  double mean = 0;
+};
+
+/// The scene's edge statistics before the objects are given out: each object's edges are
+/// measured by the rank that made its mesh while the scene was read (SceneObject::maker,
+/// when it is a rank of `comm`), or else by rank k % ranks (a mesh not held there made
+/// for the moment, not kept). The same values, to the bit, on any rank count. Collective.
+EdgeStatistics scene_edge_statistics(MPI_Comm comm, const Scene& scene);
 
 class Simulator {
 public:
@@ -56,8 +62,11 @@ public:
   /// `hosts`: with a given partition, the ranks of the split objects' parts that came
   /// with it (partition_at's); empty: split_hosts' choice from the partition alone.
   /// Hosts that do not fit the partition (another count of split objects or parts, a
-  /// part 0 off its owner, a rank out of range) throw RuntimeFailure.
-  Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partition = {}, SplitHosts hosts = {});
+  /// part 0 off its owner, a rank out of range) throw RuntimeFailure. `edges`: this
+  /// scene's scene_edge_statistics on `comm` where the caller has them (not computed
+  /// again); none: computed here.
+  Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partition = {}, SplitHosts hosts = {},
+            std::optional<EdgeStatistics> edges = std::nullopt);
   ~Simulator();
   Simulator(const Simulator&) = delete;
   Simulator& operator=(const Simulator&) = delete;

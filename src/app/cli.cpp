@@ -387,8 +387,7 @@ void print_split_objects(const Scene& s, int ranks, std::ostream& out) {
 // `comm` (the edge statistics); printed by rank 0.
 void print_partition_loads(MPI_Comm comm, const Scene& s, int ranks, std::ostream& out) {
   if (ranks <= 1) return;
-  double mean_edge = 0;
-  (void)scene_edge_statistics(comm, s, mean_edge);
+  const double mean_edge = scene_edge_statistics(comm, s).mean;
   if (comm_rank(comm) != 0) return;
   SplitHosts hosts;
   const std::vector<int> part =

@@ -282,6 +282,7 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
 
   std::vector<int> partition;
   SplitHosts hosts;  // where a new partition put the split objects' parts
+  std::optional<EdgeStatistics> edges;  // computed here for a new partition, handed on
   if (restart) {
     const CheckpointInfo& info = restart->info;
     bool same = info.ranks == nranks && info.partition.size() == scene.objects.size();
@@ -289,9 +290,10 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
     if (same) {
       partition = info.partition;
     } else {
-      double mean_edge = 0;  // the graph's least reach, as the Simulator's (initial_partition)
-      (void)scene_edge_statistics(comm, scene, mean_edge);
-      partition = partition_at(scene, info.boxes, nranks, {}, comm, &hosts, collision_settings_for(scene, mean_edge).cell_size);
+      // The graph's least reach, as the Simulator's (initial_partition).
+      edges = scene_edge_statistics(comm, scene);
+      partition =
+          partition_at(scene, info.boxes, nranks, {}, comm, &hosts, collision_settings_for(scene, edges->mean).cell_size);
     }
     // The same rank count: the parts where they were. Hosts only place work, never
     // change a result: where they do not fit (a checkpoint without them, or a split
@@ -304,7 +306,7 @@ RunSummary run_scene(MPI_Comm comm, const Scene& scene, const RunOptions& opt, s
   // MPI_Allreduce each combines them: no rank makes every mesh.
   const std::uint64_t fingerprint = scene_fingerprint(scene, scene.object_digests(rank, nranks, sum_over(comm)));
   const GuardScales guard_scale = guard_scales(scene, rank, nranks, sum_over(comm));
-  Simulator simulator(comm, scene, partition, hosts);
+  Simulator simulator(comm, scene, partition, hosts, edges);
   if (restart) {
     StepState state;
     read_checkpoint_state(comm, restart->path, restart->info, simulator.world(), state);

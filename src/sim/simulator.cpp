@@ -32,7 +32,8 @@
 
 namespace softcontact {
 
-Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partition, SplitHosts hosts)
+Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partition, SplitHosts hosts,
+                     std::optional<EdgeStatistics> edges)
     : comm_(comm), rank_(comm_rank(comm)), nranks_(comm_size(comm)), scene_(scene) {
   double t = MPI_Wtime();
   auto stage = [&](const char* name) {  // closes the stage that ends here
@@ -44,9 +45,9 @@ Simulator::Simulator(MPI_Comm comm, const Scene& scene, std::vector<int> partiti
   rebalance_ = rebalance_policy(scene.sim);
   // Before the partition: the ghosts' first skin (the detector's cell, the mean edge) is
   // the least reach of the partition's graph.
-  double mean_edge = 0;
-  median_edge_ = scene_edge_statistics(comm_, scene_, mean_edge);
-  collision_settings_ = collision_settings_for(scene, mean_edge);
+  if (!edges) edges = scene_edge_statistics(comm_, scene_);
+  median_edge_ = edges->median;
+  collision_settings_ = collision_settings_for(scene, edges->mean);
   rebalance_.min_reach = collision_settings_.cell_size;
   stage("edge statistics");
   const bool given = !partition.empty();
@@ -213,7 +214,7 @@ void Simulator::follow_ghosts() {
 // its lengths. The mean is the objects' sums in scene order (mean_of_object_sums; each
 // sum comes from one rank, the others add exact zeros), the median an exact selection
 // over the ranks (kth_smallest).
-double scene_edge_statistics(MPI_Comm comm, const Scene& scene, double& mean) {
+EdgeStatistics scene_edge_statistics(MPI_Comm comm, const Scene& scene) {
   const int rank = comm_rank(comm), nranks = comm_size(comm);
   std::vector<double> sums(scene.objects.size(), 0.0), len, own;
   for (std::size_t k = 0; k < scene.objects.size(); ++k) {
@@ -229,8 +230,10 @@ double scene_edge_statistics(MPI_Comm comm, const Scene& scene, double& mean) {
   if (nranks > 1) MPI_Allreduce(MPI_IN_PLACE, sums.data(), static_cast<int>(sums.size()), MPI_DOUBLE, MPI_SUM, comm);
   std::int64_t total = 0;
   for (std::size_t k = 0; k < scene.objects.size(); ++k) total += 6 * static_cast<std::int64_t>(scene.shape(k).tets);
-  mean = mean_of_object_sums(sums, total);
-  return total > 0 ? kth_smallest(comm, len, total / 2) : 0;
+  EdgeStatistics e;
+  e.mean = mean_of_object_sums(sums, total);
+  e.median = total > 0 ? kth_smallest(comm, len, total / 2) : 0;
+  return e;
 }
 
 void Simulator::hand_over_made_meshes() {
