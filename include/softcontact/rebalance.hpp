@@ -183,6 +183,18 @@ inline constexpr double kCrossRetryMargin = 0.1;
 /// object before it triggers a repartition again.
 inline constexpr double kImbalanceRetryMargin = 0.1;
 
+/// A repartition for the work (not for the cross-rank fraction) is taken only where the
+/// measured weights predict its slowest rank at least this fraction below the current
+/// partition's slowest (predicted_max_load of each); else no object moves, and the
+/// partition counts as one that moved nothing (RebalanceHistory::unmoved_imbalance).
+inline constexpr double kRepartitionGain = 0.05;
+
+/// The largest sum of node weights (measured_weights' order: the objects, then the
+/// split objects' parts) that `part` and the parts' `hosts` (empty: split_hosts') put on
+/// one rank. Throws RuntimeFailure where they do not fit.
+double predicted_max_load(const Scene& scene, const std::vector<int>& part, const SplitHosts& hosts,
+                          const std::vector<std::int64_t>& weights, int nranks);
+
 /// The decision at a check, from the reduced figures (the same on every rank): the work
 /// imbalance (max / mean) above the policy's, or the cross-rank fraction above the
 /// policy's and above what the current partition achieved plus kCrossRetryMargin. A

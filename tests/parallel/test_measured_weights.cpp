@@ -86,6 +86,37 @@ TEST(MeasuredWeights, SpreadEachRanksSecondsOverItsObjects) {
   EXPECT_EQ(heavy0 > 4, all0 < 8);
 }
 
+// The gate of a repartition for the work (kRepartitionGain): the slowest rank predicted
+// by the measured weights under the current partition and under METIS's. From the same
+// 3 s / 1 s measurement: the current partition's slowest rank is rank 0's 8 x 375,000 us
+// = 3,000,000 (its measured seconds), METIS's at most 1.1 times the mean 2,000,000, well
+// past the 5 % the gate asks. Measured again on that partition as balanced (1 s each),
+// its weights predict its own slowest rank at 1,000,000 us and the next METIS partition
+// no lower: that repartition would move objects for nothing, and the gate keeps them.
+TEST(Rebalance, ARepartitionForTheWorkIsTakenOnlyWhereItPredictsAFasterSlowestRank) {
+  const Scene scene = row_of_cubes();
+  std::vector<int> current(16, 0);
+  for (std::size_t k = 8; k < 16; ++k) current[k] = 1;
+  const std::vector<std::int64_t> w = measured_weights(scene, current, {3.0, 1.0});
+  EXPECT_DOUBLE_EQ(predicted_max_load(scene, current, {}, w, 2), 3000000.0);
+  std::vector<Box> boxes;
+  for (std::size_t k = 0; k < 16; ++k) boxes.push_back(scene.shape(k).box);
+  const std::vector<int> next = partition_at(scene, boxes, 2, w);
+  const double after = predicted_max_load(scene, next, {}, w, 2);
+  const std::vector<double> cost = part_cost(w, next, 2);
+  EXPECT_DOUBLE_EQ(after, *std::max_element(cost.begin(), cost.end()));
+  EXPECT_LE(after, 1.1 * 2000000.0);
+  EXPECT_LT(after, (1 - kRepartitionGain) * 3000000.0) << "this repartition is taken";
+
+  const std::vector<std::int64_t> balanced = measured_weights(scene, next, {1.0, 1.0});
+  const double now = predicted_max_load(scene, next, {}, balanced, 2);
+  EXPECT_NEAR(now, 1000000.0, 8.0) << "each rank's weights sum to its measured seconds (rounding per object)";
+  const std::vector<int> again = partition_at(scene, boxes, 2, balanced);
+  EXPECT_GE(predicted_max_load(scene, again, {}, balanced, 2), (1 - kRepartitionGain) * now)
+      << "no partition of these weights is 5 % faster than an even one: the gate keeps the objects";
+  EXPECT_THROW(predicted_max_load(scene, std::vector<int>(15, 0), {}, w, 2), RuntimeFailure);
+}
+
 // A kinematic object's static work is a tenth of its surface triangles; within a rank the
 // time follows static work + 1. A rank without a measurement (0 s, NaN) makes every weight
 // the static work + 1: seconds and tets are not mixed.
