@@ -135,7 +135,8 @@ inline constexpr int kMetisCuts = 4;
 /// the one leaving the lower larger load, then the lowest object and part; moves that
 /// raise the memory's largest part above the larger of its current load and
 /// kMemoryImbalanceTrigger times the mean (kMemoryTolerance where the memory was a
-/// constraint: what METIS balanced stays balanced) are not made; it stops at 1.03. A
+/// constraint: what METIS balanced stays balanced) are not made; it stops at 1.03, or
+/// after 16 moves per part (a repair for few objects: each move is a pass over them). A
 /// greedy repair, not an optimum: above kRepairTrigger (and without memory), no single
 /// move out of the heaviest part lowers it (tests/parallel/test_partition.cpp,
 /// "PartitionRepair").

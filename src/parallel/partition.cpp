@@ -21,6 +21,8 @@ constexpr double kWorkTolerance = 1.03;
 // The work imbalance a memory-balanced partition may add to the larger of the work-only
 // partition's and kWorkTolerance, and still be taken (metis_parts).
 constexpr double kMemoryWorkSlack = 0.01;
+// The most objects repair_balance moves, per part.
+constexpr std::size_t kRepairMovesPerPart = 16;
 // Total vertex weight handed to METIS stays below this, whatever idx_t's width: METIS
 // sums weights in idx_t and scales them by real_t (float) factors, so leave headroom.
 constexpr std::int64_t kMaxMetisWeight = std::int64_t{1} << 30;
@@ -254,8 +256,9 @@ void fill_empty_parts(const PartitionInput& in, std::vector<int>& part, int npar
 // the memory imbalance above the larger of its current value and `memory_ratio` is not
 // made: kMemoryImbalanceTrigger after METIS by work alone (memory only has to fit; below
 // that METIS is not asked for it), kMemoryTolerance after METIS with the memory as a
-// constraint (what it balanced stays balanced). It stops at kWorkTolerance. Every move lowers the loads sorted descending
-// (lexicographically), so it ends; a move never empties a part of its weighted objects.
+// constraint (what it balanced stays balanced). It stops at kWorkTolerance, or after
+// kRepairMovesPerPart moves per part. Every move lowers the loads sorted descending
+// (lexicographically); a move never empties a part of its weighted objects.
 void repair_balance(const PartitionInput& in, const std::vector<ObjectEdge>& edges, std::vector<int>& part,
                     int nparts, double memory_ratio) {
   const std::size_t n = part.size(), np = static_cast<std::size_t>(nparts);
@@ -290,7 +293,10 @@ void repair_balance(const PartitionInput& in, const std::vector<ObjectEdge>& edg
     adj[fill[e.j]++] = {e.i, e.weight};
   }
   std::vector<std::int64_t> into(np, 0);  // one object's edge weight into each part
-  for (std::size_t moves = 0; moves < n * np; ++moves) {
+  // At most kRepairMovesPerPart moves per part: a repair for few objects, each move a
+  // pass over the objects (where many objects leave a part this far above the mean,
+  // METIS's cut is not the granularity's).
+  for (std::size_t moves = 0; moves < kRepairMovesPerPart * np; ++moves) {
     const std::size_t from = heaviest(load);
     if (static_cast<double>(load[from]) <= kWorkTolerance * mean) return;
     const double memory_limit =

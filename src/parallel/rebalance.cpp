@@ -176,18 +176,19 @@ bool split_hosts_fit(const Scene& scene, const std::vector<int>& partition, int 
 namespace {
 // The ranks of the split objects' part nodes (part_nodes' order) under `part` and its
 // hosts (none: split_hosts'); part 0 of each is the owner's, in its object's node.
+// `who` names the caller in errors.
 std::vector<std::size_t> part_node_ranks(const Scene& scene, const std::vector<int>& part, const SplitHosts& hosts_in,
-                                         std::size_t nr, std::size_t part_nodes_count) {
+                                         std::size_t nr, std::size_t part_nodes_count, const std::string& who) {
   std::vector<std::size_t> host;
   for (const std::vector<int>& h : hosts_in.empty() ? split_hosts(scene, part, static_cast<int>(nr)) : hosts_in) {
-    if (h.empty()) throw RuntimeFailure("measured_weights: a split object without hosts");
+    if (h.empty()) throw RuntimeFailure(who + ": a split object without hosts");
     if (h.size() < nr)
       for (int r : std::vector<int>(h.begin() + 1, h.end())) {
-        if (r < 0 || static_cast<std::size_t>(r) >= nr) throw RuntimeFailure("measured_weights: a split part on rank " + std::to_string(r));
+        if (r < 0 || static_cast<std::size_t>(r) >= nr) throw RuntimeFailure(who + ": a split part on rank " + std::to_string(r));
         host.push_back(static_cast<std::size_t>(r));
       }
   }
-  if (host.size() != part_nodes_count) throw RuntimeFailure("measured_weights: the split objects' parts do not match");
+  if (host.size() != part_nodes_count) throw RuntimeFailure(who + ": the split objects' parts do not match");
   return host;
 }
 }  // namespace
@@ -198,7 +199,7 @@ double predicted_max_load(const Scene& scene, const std::vector<int>& part, cons
   if (part.size() != no || weights.size() < no)
     throw RuntimeFailure("predicted_max_load: " + std::to_string(weights.size()) + " weights, a partition of " +
                          std::to_string(part.size()) + " for " + std::to_string(no) + " objects");
-  const std::vector<std::size_t> host = part_node_ranks(scene, part, hosts, nr, weights.size() - no);
+  const std::vector<std::size_t> host = part_node_ranks(scene, part, hosts, nr, weights.size() - no, "predicted_max_load");
   std::vector<double> load(nr, 0.0);
   for (std::size_t j = 0; j < weights.size(); ++j) {
     const std::size_t r = j < no ? static_cast<std::size_t>(part[j]) : host[j - no];
@@ -232,7 +233,7 @@ std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector
     S[r] += static_cast<double>(w[k]);
     C[r] += contact(k);
   }
-  const std::vector<std::size_t> host = part_node_ranks(scene, part, hosts_in, nr, nodes.work.size());
+  const std::vector<std::size_t> host = part_node_ranks(scene, part, hosts_in, nr, nodes.work.size(), "measured_weights");
   for (std::size_t j = 0; j < host.size(); ++j) S[host[j]] += static_cast<double>(w[no + j]);
   // Least squares for T = a S + b C over the ranks (normal equations, 2 x 2).
   double ss = 0, sc = 0, cc = 0, st = 0, ct = 0;
