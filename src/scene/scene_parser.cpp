@@ -947,6 +947,9 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
   // reported at its entry, the first in scene order, as if placed one by one.
   if (const auto failed = place_random(pending, scene.objects, limits.hold_copy_meshes, limits))
     r.fail(pending_nodes[failed->entry], failed->detail);
+  // Every rank keeps every object's record for the run: not the up to twice as many
+  // slots the vector's growth left (352 bytes each).
+  scene.objects.shrink_to_fit();
   return parsed;
 }
 
