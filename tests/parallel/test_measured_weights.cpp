@@ -382,6 +382,10 @@ TEST(SplitParts, ThePartitionKeepsRoomForThePartsAndTheirRanksTakeThem) {
   for (std::size_t k = 0; k < s.objects.size(); ++k) per_rank[static_cast<std::size_t>(part[k])] += static_cast<double>(w[k]);
   for (std::size_t i = 1; i < 3; ++i) per_rank[static_cast<std::size_t>(placed[0][i])] += static_cast<double>(w[s.objects.size() + i - 1]);
   for (std::size_t r = 0; r < 4; ++r) EXPECT_NEAR(per_rank[r], 1e6 * seconds[r], 70.0) << "rank " << r;
+  // The repartition's gate sums the same nodes on the same ranks (the parts by `placed`;
+  // split_hosts' choice from the partition alone puts them elsewhere, and fails this).
+  EXPECT_DOUBLE_EQ(predicted_max_load(s, part, placed, w, 4), *std::max_element(per_rank.begin(), per_rank.end()));
+  EXPECT_THROW((void)predicted_max_load(s, part, SplitHosts{{}}, w, 4), RuntimeFailure);
   EXPECT_NO_THROW((void)partition_at(s, boxes, 4, w));
   EXPECT_THROW((void)partition_at(s, boxes, 4, std::vector<std::int64_t>(w.begin(), w.end() - 1)), RuntimeFailure);
   // Hosts that do not fit: a split object without any, or a part on no rank.
