@@ -121,7 +121,7 @@ CutSearch shared_cut_search(MPI_Comm comm);
 std::vector<int> partition_objects_over(const PartitionInput& in, int nparts, MPI_Comm comm,
                                         int parts_per_group = kPartsPerGroup);
 
-/// The static work of object k:/// The static work of object k: its tets; a kinematic object (no forces, only its share
+/// The static work of object k: its tets; a kinematic object (no forces, only its share
 /// of detection) a tenth of its surface triangles.
 std::int64_t static_work(const Scene& scene, std::size_t k);
 
@@ -141,9 +141,14 @@ std::int64_t static_work(const Scene& scene, std::size_t k);
 /// The parts of split objects cut into fewer parts than ranks, but the owner's, follow
 /// the objects (one weight each, after the objects', as partition_at takes them): their
 /// static work counts on the rank evaluating them (`hosts`, those of the run; empty:
-/// split_hosts of `part`) in step 1 and their share of its seconds is their weight. When some rank measured no time (non-positive or not
-/// finite), every weight is the static work + 1 (no mixing of units). Identical on every rank given the same input
-/// (arithmetic in object and rank order).
+/// split_hosts of `part`) in step 1 and their share of its seconds is their weight.
+/// Objects split into a part per rank have no node: their parts' static work E (the same
+/// on every rank) is in every S_r, and the share a E of each rank's model is withheld
+/// from its nodes (step 2 spreads its seconds over a S + a E + b C), so that what every
+/// rank pays alike is not charged to the objects of the ranks with the fewest. When some
+/// rank measured no time (non-positive or not finite), every weight is the static work
+/// + 1 (no mixing of units). Identical on every rank given the same input (arithmetic in
+/// object and rank order).
 std::vector<std::int64_t> measured_weights(const Scene& scene, const std::vector<int>& part,
                                            const std::vector<double>& rank_seconds,
                                            const std::vector<std::int64_t>& contacts = {},

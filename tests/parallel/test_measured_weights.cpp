@@ -407,6 +407,48 @@ TEST(SplitParts, ThePartitionKeepsRoomForThePartsAndTheirRanksTakeThem) {
   EXPECT_THROW((void)partition_loads(s, three, {}, 3), RuntimeFailure) << "a split object without hosts";
 }
 
+// A floor of 1,200 tets under 80 cubes of 10 on 4 ranks: the floor has a part on every
+// rank (split_part_count 4, each 300 tets) and no node of its own. Seconds made from a
+// true cost of 1 ms per tet on each rank: its cubes plus its 300 of the floor. From a
+// partition that gave rank 0 8 cubes and the others 24 each, the measured weights must
+// lead METIS to a partition whose true cost is balanced (its cubes are the granularity:
+// within 1.03 of the mean 500). Charging each rank's floor part to its cubes instead made
+// rank 0's cubes (80 + 300) / 8 = 47.5 ms each against (240 + 300) / 24 = 22.5, and METIS
+// balanced those.
+TEST(MeasuredWeights, APartOnEveryRankIsNotChargedToTheObjects) {
+  std::vector<Box> boxes;
+  Scene s;
+  s.materials.resize(1);
+  add_shape(s, boxes, 1200, 1200, 0, Box{{0, 0, -1}, {16, 5, 0}});
+  for (int i = 0; i < 80; ++i) {
+    const double x = i % 16, y = i / 16;
+    add_shape(s, boxes, 10, 10, 0, Box{{x, y, 0}, {x + 0.9, y + 0.9, 0.9}});
+  }
+  ASSERT_EQ(split_part_count(1200, 2000, 4), 4) << "the floor has a part on every rank";
+  std::vector<int> current(s.objects.size(), 0);
+  for (std::size_t k = 1; k < s.objects.size(); ++k) current[k] = k <= 8 ? 0 : 1 + static_cast<int>((k - 9) % 3);
+  auto true_cost = [&](const std::vector<int>& part) {
+    std::vector<double> c(4, 300.0);
+    for (std::size_t k = 1; k < s.objects.size(); ++k) c[static_cast<std::size_t>(part[k])] += 10;
+    return c;
+  };
+  std::vector<double> seconds;
+  for (double c : true_cost(current)) seconds.push_back(1e-3 * c);
+  const std::vector<std::int64_t> w = measured_weights(s, current, seconds);
+  ASSERT_EQ(w.size(), s.objects.size()) << "no part nodes";
+  // The floor's node is its static work's + 1 alone (a, about 1 ms), a cube its 10 tets
+  // + 1: about 10.7 ms on every rank. (The + 1 of each object is not in the true cost, so
+  // the fit is not exact: rank 0's cubes come out 2 % dearer than the others'.) Charged
+  // with the floor's part, rank 0's would be 4.4 times the others'.
+  EXPECT_LT(w[0], w[1] / 5);
+  for (std::size_t k = 1; k < s.objects.size(); ++k)
+    EXPECT_NEAR(static_cast<double>(w[k]), static_cast<double>(w[1]), 0.03 * static_cast<double>(w[1])) << "cube " << k;
+  const std::vector<int> next = partition_at(s, boxes, 4, w);
+  const double after = imbalance(true_cost(next));
+  std::printf("  true cost imbalance %.3f before, %.3f after\n", imbalance(true_cost(current)), after);
+  EXPECT_LE(after, 1.03);
+}
+
 namespace {
 
 // 16 bodies (500 tets, 150 vertices) in a 4 x 4 cluster of 0.2 m boxes, and a crowd of
