@@ -125,6 +125,17 @@ std::vector<int> partition_objects_over(const PartitionInput& in, int nparts, MP
 /// of detection) a tenth of its surface triangles.
 std::int64_t static_work(const Scene& scene, std::size_t k);
 
+/// The work of a split object that its owner does beyond its part, in tets per vertex:
+/// merging the parts' corner forces into each vertex and sending the parts their state
+/// (split_forces.hpp). Measured on soft_floor on 4 ranks (oversubscribed on 2 cores):
+/// the floor's owner took 1.9 ms per step more in forces than the other ranks for its
+/// 17,405 vertices, where a tet took about 0.09 ms per thousand.
+inline constexpr double kMergeWorkPerVertex = 1.0;
+
+/// kMergeWorkPerVertex times object k's vertices, rounded: the owner's share of a split
+/// object's work beyond its part (partition_loads, the partition's node weights).
+std::int64_t merge_work(const Scene& scene, std::size_t k);
+
 /// Partition weights from measured cost, by object, in microseconds (at least 1):
 ///
 /// 1. A cost model fitted to every rank's measurement: T_r = a S_r + b C_r, with T_r the

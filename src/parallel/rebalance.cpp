@@ -23,6 +23,10 @@ std::int64_t static_work(const Scene& scene, std::size_t k) {
   return scene.objects[k].kinematic() ? static_cast<std::int64_t>(s.triangles / 10) : static_cast<std::int64_t>(s.tets);
 }
 
+std::int64_t merge_work(const Scene& scene, std::size_t k) {
+  return static_cast<std::int64_t>(std::llround(kMergeWorkPerVertex * static_cast<double>(scene.shape(k).vertices)));
+}
+
 namespace {
 // Per object: the parts a split object is cut into (split_part_count), 0 for the rest.
 std::vector<int> parts_per_object(const Scene& scene, int nranks) {
@@ -40,10 +44,16 @@ std::vector<int> parts_per_object(const Scene& scene, int nranks) {
 // balance: none of its work is the owner's node's. (Until 2026-11-29 the owner's node
 // carried its part, which no other rank's did: soft_floor on 4 ranks left the owner with
 // a fifth of the bodies the others had, 1.14 times the mean work.)
+//
+// The owner also merges the parts' corner forces into every vertex of the object
+// (SplitForces::merge) and sends the parts their state: work no part carries, which the
+// node carries as kMergeWorkPerVertex tets per vertex. (Without it soft_floor on 4
+// ranks gave the floor's owner as many bodies as the others, and its forces took 4.1 ms
+// per step against 2.0 to 2.3; docs/benchmarks.md, "the owner's merge".)
 std::int64_t shared_work(const Scene& scene, std::size_t k, const std::vector<int>& parts, int nranks) {
   const std::int64_t w = static_work(scene, k);
   if (parts[k] <= 0) return w;
-  return parts[k] >= nranks ? 0 : w / parts[k];
+  return (parts[k] >= nranks ? 0 : w / parts[k]) + merge_work(scene, k);
 }
 
 // The other parts of the split objects cut into fewer parts than ranks, in split_hosts'
@@ -141,8 +151,10 @@ PartitionLoads partition_loads(const Scene& scene, const std::vector<int>& parti
       continue;
     }
     // Its parts, on the ranks that evaluate them (the owner's own among them: the first of
-    // the hosts, or its place among every rank), whose memory the owner's counts already.
+    // the hosts, or its place among every rank), whose memory the owner's counts already;
+    // the owner's merge of their forces.
     if (split >= hosts.size()) throw RuntimeFailure("partition_loads: fewer split hosts than split objects");
+    l.work[owner] += static_cast<double>(merge_work(scene, k));
     bool owner_seen = false;
     for (int r : hosts[split++]) {
       l.work[rank_of(r)] += static_cast<double>(static_work(scene, k) / parts[k]);
