@@ -485,6 +485,14 @@ std::vector<int> initial_partition(const Scene& scene, int nranks, MPI_Comm comm
   return partition_at(scene, scene_boxes(scene), nranks, {}, comm, hosts, min_reach);
 }
 
+namespace {
+// The cross-rank fraction's trigger: above the policy's and above what the current
+// partition achieved plus kCrossRetryMargin.
+bool cross_wanted(const RebalancePolicy& policy, double cross, const RebalanceHistory& h) {
+  return cross > policy.max_cross_fraction && cross > h.achieved_cross + kCrossRetryMargin;
+}
+}  // namespace
+
 bool rebalance_wanted(const RebalancePolicy& policy, double imbalance, double cross, RebalanceHistory& h) {
   if (h.measure_cross) {
     h.achieved_cross = cross;
@@ -493,8 +501,7 @@ bool rebalance_wanted(const RebalancePolicy& policy, double imbalance, double cr
   const bool stuck = policy.max_imbalance >= 1 && h.unmoved_imbalance > 0 &&
                      imbalance <= h.unmoved_imbalance + kImbalanceRetryMargin;
   const bool by_work = imbalance > policy.max_imbalance && !stuck;
-  const bool by_cross = cross > policy.max_cross_fraction && cross > h.achieved_cross + kCrossRetryMargin;
-  return by_work || by_cross;
+  return by_work || cross_wanted(policy, cross, h);
 }
 
 bool rebalance(MPI_Comm comm, const Scene& scene, const World& w,
@@ -530,7 +537,7 @@ bool rebalance(MPI_Comm comm, const Scene& scene, const World& w,
   // its slowest rank at least kRepartitionGain below the current partition's: few objects
   // on many ranks (archway on 8) cannot come under max_imbalance, and each repartition
   // moved objects to another imbalance as large (docs/benchmarks.md).
-  const bool by_cross = cross > policy.max_cross_fraction && cross > history.achieved_cross + kCrossRetryMargin;
+  const bool by_cross = cross_wanted(policy, cross, history);  // (achieved_cross as rebalance_wanted left it)
   double predicted[2] = {0, 0};
   if (policy.measured_weights && policy.max_imbalance >= 1 && !by_cross) {
     predicted[0] = predicted_max_load(scene, current, hosts_now, weights, nranks);
