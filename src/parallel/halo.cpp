@@ -139,16 +139,19 @@ void Halo::update_changed(double* xyz) {
     // A bit per listed row (1: changed), padded to whole doubles, then the changed rows.
     const std::vector<index_t>& rows = send_rows_[k];
     const std::size_t mask_bytes = 8 * ((rows.size() + 63) / 64);
+    // (sized for every row at once, then cut to the changed ones: no growth row by row)
     std::vector<char>& m = out[k];
-    m.assign(mask_bytes, 0);
+    m.assign(mask_bytes + 3 * sizeof(double) * rows.size(), 0);
+    std::size_t at = mask_bytes;
     for (std::size_t j = 0; j < rows.size(); ++j) {
       const double* now = xyz + 3 * static_cast<std::size_t>(rows[j]);
       if (std::memcmp(now, &kept_[k][3 * j], 3 * sizeof(double)) == 0) continue;
       std::memcpy(&kept_[k][3 * j], now, 3 * sizeof(double));
       m[j / 8] = static_cast<char>(m[j / 8] | (1 << (j % 8)));
-      const char* b = reinterpret_cast<const char*>(now);
-      m.insert(m.end(), b, b + 3 * sizeof(double));
+      std::memcpy(m.data() + at, now, 3 * sizeof(double));
+      at += 3 * sizeof(double);
     }
+    m.resize(at);
     MPI_Isend(m.data(), static_cast<int>(m.size()), MPI_BYTE, neighbors_[k], kTagChanged, comm_, &req[k]);
   }
   std::vector<char> in;
