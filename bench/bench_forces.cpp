@@ -4,8 +4,10 @@
 // so that every tet is strained and rotated and the corotational polar decomposition
 // does real work. Reported: nanoseconds per tet (counter ns_per_tet) for the whole evaluation
 // (per-tet kernel plus the per-vertex gather), and on 96 boxes of 864 tets with the same
-// total (evaluated object by object, against the two phases over everything). Run with
-// OMP_NUM_THREADS=1 for per-core figures.
+// total (evaluated object by object, against the two phases over everything). And the
+// box split for its forces with its one part on its owner (SplitForces::add, the path of a
+// soft floor's owner: the part's kernels, its vertices' sums streamed, the owner's merge),
+// against add_forces on the same box. Run with OMP_NUM_THREADS=1 for per-core figures.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -14,6 +16,7 @@
 
 #include "softcontact/forces.hpp"
 #include "softcontact/scene.hpp"
+#include "softcontact/split_forces.hpp"
 #include "softcontact/world.hpp"
 
 using namespace softcontact;
@@ -95,6 +98,38 @@ void forces(benchmark::State& state, const char* model, bool damping, Phase phas
   state.counters["tets"] = tets;
 }
 
+/// The box as a split object whose one part is on its owner (rank 0 of one): everything
+/// SplitForces::add does on a floor's owner but the exchanges, whose cost is the network's.
+/// Its forces are bitwise add_forces' (tests/parallel/test_split_forces.cpp); the
+/// difference in time is the split path's own: the part's World, its stream of vertex sums
+/// and the merge.
+void split_one_part(benchmark::State& state, const char* model, bool cold) {
+  const Scene scene = box_scene(model, 0.0);
+  World w = build_world(scene, block_partition(scene, 1), 0);
+  SplitObject plan;
+  plan.object = 0;
+  plan.owner = 0;
+  plan.tet_part.assign(w.tet_gid.size(), 0);
+  SplitForces split(scene, w, {plan});
+  deform(w);
+  std::vector<double> f(3 * w.n_local(), 0.0);
+  split.add(w, f, false, nullptr);
+  for (auto _ : state) {
+    if (cold) {
+      state.PauseTiming();
+      evict_caches();
+      state.ResumeTiming();
+    }
+    split.add(w, f, false, nullptr);
+    benchmark::DoNotOptimize(f.data());
+    benchmark::ClobberMemory();
+  }
+  const double tets = static_cast<double>(w.tet_gid.size());
+  state.counters["ns_per_tet"] =
+      benchmark::Counter(tets, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.counters["tets"] = tets;
+}
+
 }  // namespace
 
 BENCHMARK_CAPTURE(forces, linear, "linear", false)->Unit(benchmark::kMillisecond);
@@ -114,5 +149,10 @@ BENCHMARK_CAPTURE(forces, neohookean_96_objects_cold, "neohookean", false, Phase
     ->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(forces, neohookean_96_objects_two_phases_cold, "neohookean", false, Phase::two_phases, true, true)
     ->Unit(benchmark::kMillisecond);
+
+// One large object: add_forces against the split path on one rank, warm and cold.
+BENCHMARK_CAPTURE(forces, neohookean_cold, "neohookean", false, Phase::all, false, true)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(split_one_part, neohookean, "neohookean", false)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(split_one_part, neohookean_cold, "neohookean", true)->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

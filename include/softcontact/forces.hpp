@@ -133,17 +133,27 @@ public:
   /// otherwise, never an object left without forces.
   void exclude_objects(const World& w, const std::vector<int>& objects);
 
-  /// After compute_tet_forces: the corner forces of local vertex i, appended to `out` in
-  /// incidence order (ascending tet global id). With `fold`, their sum, 3 doubles, taken
-  /// exactly as add_forces takes it; else each entry, 3 doubles apiece.
-  void append_vertex_corners(std::size_t i, bool fold, std::vector<double>& out) const;
+  /// After compute_tet_forces: the corner forces of local vertex i written from `out` on
+  /// in incidence order (ascending tet global id); returns the end of what was written.
+  /// With `fold`, their sum, 3 doubles, taken exactly as add_forces takes it; else each
+  /// entry, 3 doubles apiece (vertex_corner_doubles(i, fold) in all).
+  double* write_vertex_corners(std::size_t i, bool fold, double* out) const;
+  std::size_t vertex_corner_doubles(std::size_t i, bool fold) const;
+  /// compute_tet_forces, then write_vertex_corners(i, fold[i], out + offset[i]) for every
+  /// owned vertex i, in add_forces' stages (each vertex's corners written while they are
+  /// still in cache). The same doubles as the two phases one after the other; with an
+  /// object excluded (exclude_objects), its vertices are not written.
+  void stream_vertex_corners(const World& w, bool damping, const std::vector<char>& fold,
+                             const std::vector<std::size_t>& offset, double* out);
 
-  /// add_forces' sum for local vertex i from its corner forces given apart: the n entries
-  /// of c (n,3) folded in order from zero, then the -alpha m v term with `damping` (alpha
-  /// [1/s], the vertex's Rayleigh mass damping), then f_i += the sum. With the entries in
-  /// incidence order it is bitwise add_forces' result (split_forces.hpp relies on it).
-  static void add_vertex_force(const World& w, std::vector<double>& f, bool damping, double alpha, std::size_t i,
-                               const double* c, std::size_t n);
+  /// add_forces' last step for the n local vertices first .. first + n - 1 from their
+  /// corner forces summed elsewhere: `sums` (n,3) holds each vertex's corner forces
+  /// folded from zero in incidence order (a fold of write_vertex_corners' entries, or its
+  /// folded sum); adds the -alpha m v term with `damping` (alpha [1/s], the vertices'
+  /// Rayleigh mass damping), then f_i += the sum. Bitwise add_forces' result
+  /// (split_forces.hpp relies on it).
+  static void add_vertex_sums(const World& w, std::vector<double>& f, bool damping, double alpha, std::size_t first,
+                              const double* sums, std::size_t n);
 
   /// Strain energy and inverted-tet count per owned object at World::x (summed in tet
   /// order, so deterministic).
@@ -194,11 +204,22 @@ private:
   std::vector<FusedObject> fused_;
   std::vector<std::size_t> unfused_blocks_;                      ///< indices into blocks_
   std::vector<std::pair<std::size_t, std::size_t>> unfused_vertices_;  ///< ascending ranges [begin, end)
+  /// The unfused blocks and vertices in stages (plan_stages): stage k runs the blocks
+  /// unfused_blocks_[block_begin, block_end), then gathers the vertices
+  /// staged_vertices_[vertex_begin, vertex_end), those whose last tet is in one of them,
+  /// while their corner forces are still in cache.
+  struct Stage {
+    std::size_t block_begin, block_end, vertex_begin, vertex_end;
+  };
+  std::vector<Stage> stages_;
+  std::vector<std::uint32_t> staged_vertices_;
+  void plan_stages();
   /// The plan with no object excluded (exclude_objects filters it).
   std::vector<FusedObject> all_fused_;
   std::vector<std::size_t> all_unfused_blocks_;
   std::vector<std::pair<std::size_t, std::size_t>> all_unfused_vertices_;
-  void gather_range(const World& w, std::vector<double>& f, bool damping, std::size_t begin, std::size_t end) const;
+  template <class PerVertex>
+  void run_plan(const World& w, bool damping, const PerVertex& per_vertex);
   void run_block(const World& w, bool damping, std::size_t k);
   std::vector<double> vertex_alpha_;      ///< (n_local) Rayleigh alpha of the vertex's material [1/s]
   std::vector<std::int64_t> inc_offset_;  ///< (n_owned + 1) CSR offsets into inc_slot_

@@ -42,6 +42,11 @@ constexpr std::ptrdiff_t kParallelVertices = 4096;
 /// machine of docs/benchmarks.md) between the two.
 constexpr std::size_t kFusedTets = 4096;
 
+/// add_forces runs a large object's kernels in stages of this many blocks (4,096 tets,
+/// 384 KiB of corner forces) and gathers after each stage the vertices whose tets are all
+/// done, most of them still in the core's L2 cache.
+constexpr std::size_t kStageBlocks = 16;
+
 LawParams params_of(const ElasticForces::Segment& s) { return {{s.lambda, s.mu}, s.young, s.beta}; }
 
 /// Object `obj`'s segment fields from its material (begin, end, owned and padded_begin
@@ -227,8 +232,44 @@ ElasticForces::ElasticForces(const Scene& scene, const World& w, std::vector<int
   all_fused_ = fused_;
   all_unfused_blocks_ = unfused_blocks_;
   all_unfused_vertices_ = unfused_vertices_;
+  plan_stages();
   // The objects held elsewhere have no tets here; their vertices leave the gather.
   if (!held_elsewhere_.empty()) exclude_objects(w, held_elsewhere_);
+}
+
+void ElasticForces::plan_stages() {
+  stages_.clear();
+  staged_vertices_.clear();
+  std::size_t nv = 0;
+  for (const auto& range : unfused_vertices_) nv += range.second - range.first;
+  if (nv == 0 && unfused_blocks_.empty()) return;
+  if (inc_offset_.size() - 1 > std::numeric_limits<std::uint32_t>::max())
+    throw RuntimeFailure("ElasticForces: too many vertices on one rank (" + std::to_string(inc_offset_.size() - 1) + ")");
+  const std::size_t nstages = std::max<std::size_t>(1, (unfused_blocks_.size() + kStageBlocks - 1) / kStageBlocks);
+  // Each vertex's stage: that of its last tet among the unfused blocks (0 for a vertex
+  // none of them touches: only inactive tets, or none).
+  const std::size_t no = inc_offset_.size() - 1;
+  std::vector<std::uint32_t> stage_of(no, 0);
+  for (std::size_t k = 0; k < unfused_blocks_.size(); ++k) {
+    const Block& b = blocks_[unfused_blocks_[k]];
+    const auto stage = static_cast<std::uint32_t>(k / kStageBlocks);
+    for (std::size_t t = b.begin; t < b.begin + static_cast<std::size_t>(b.count); ++t)
+      for (int c = 0; c < 4; ++c) {
+        const auto v = static_cast<std::size_t>(corner_[c][t]);
+        if (v < no) stage_of[v] = std::max(stage_of[v], stage);
+      }
+  }
+  // Counting sort: the vertices by stage, ascending within each.
+  std::vector<std::size_t> count(nstages + 1, 0);
+  for (const auto& range : unfused_vertices_)
+    for (std::size_t i = range.first; i < range.second; ++i) ++count[stage_of[i] + 1];
+  std::partial_sum(count.begin(), count.end(), count.begin());
+  staged_vertices_.resize(nv);
+  std::vector<std::size_t> fill(count.begin(), count.end() - 1);
+  for (const auto& range : unfused_vertices_)
+    for (std::size_t i = range.first; i < range.second; ++i) staged_vertices_[fill[stage_of[i]]++] = static_cast<std::uint32_t>(i);
+  for (std::size_t k = 0; k < nstages; ++k)
+    stages_.push_back({k * kStageBlocks, std::min(unfused_blocks_.size(), (k + 1) * kStageBlocks), count[k], count[k + 1]});
 }
 
 namespace {
@@ -305,30 +346,32 @@ inline void gather_vertex(const World& w, std::vector<double>& f, bool damping, 
 
 }  // namespace
 
-void ElasticForces::append_vertex_corners(std::size_t i, bool fold, std::vector<double>& out) const {
+std::size_t ElasticForces::vertex_corner_doubles(std::size_t i, bool fold) const {
+  return fold ? 3 : 3 * static_cast<std::size_t>(inc_offset_[i + 1] - inc_offset_[i]);
+}
+
+double* ElasticForces::write_vertex_corners(std::size_t i, bool fold, double* out) const {
   if (fold) {
-    double acc[3];
+    double acc[3];  // (a local sum: folded into `out` itself, every add waited for the last one's store)
     fold_corners(tet_force_.data(), inc_offset_.data(), inc_slot_.data(), i, acc);
-    out.insert(out.end(), acc, acc + 3);
-    return;
+    std::copy(acc, acc + 3, out);
+    return out + 3;
   }
   for (std::int64_t k = inc_offset_[i]; k < inc_offset_[i + 1]; ++k) {
     const double* c = tet_force_.data() + inc_slot_[static_cast<std::size_t>(k)];
-    out.push_back(c[0]);
-    out.push_back(c[kLanes]);
-    out.push_back(c[2 * kLanes]);
+    *out++ = c[0];
+    *out++ = c[kLanes];
+    *out++ = c[2 * kLanes];
   }
+  return out;
 }
 
-void ElasticForces::add_vertex_force(const World& w, std::vector<double>& f, bool damping, double alpha, std::size_t i,
-                                     const double* c, std::size_t n) {
-  double acc[3] = {0, 0, 0};
-  for (std::size_t k = 0; k < n; ++k) {
-    acc[0] += c[3 * k];
-    acc[1] += c[3 * k + 1];
-    acc[2] += c[3 * k + 2];
+void ElasticForces::add_vertex_sums(const World& w, std::vector<double>& f, bool damping, double alpha,
+                                    std::size_t first, const double* sums, std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i) {
+    double acc[3] = {sums[3 * i], sums[3 * i + 1], sums[3 * i + 2]};
+    finish_vertex(w, f, damping, alpha, first + i, acc);
   }
-  finish_vertex(w, f, damping, alpha, i, acc);
 }
 
 void ElasticForces::exclude_objects(const World& w, const std::vector<int>& objects) {
@@ -363,12 +406,7 @@ void ElasticForces::exclude_objects(const World& w, const std::vector<int>& obje
     }
     if (range.first < range.second) unfused_vertices_.push_back(range);
   }
-}
-
-void ElasticForces::gather_range(const World& w, std::vector<double>& f, bool damping, std::size_t begin,
-                                 std::size_t end) const {
-  for (std::size_t i = begin; i < end; ++i)
-    gather_vertex(w, f, damping, tet_force_.data(), inc_offset_.data(), inc_slot_.data(), vertex_alpha_.data(), i);
+  plan_stages();
 }
 
 void ElasticForces::gather_forces(const World& w, std::vector<double>& f, bool damping) const {
@@ -379,31 +417,47 @@ void ElasticForces::gather_forces(const World& w, std::vector<double>& f, bool d
                   static_cast<std::size_t>(i));
 }
 
-void ElasticForces::add_forces(const World& w, std::vector<double>& f, bool damping) {
+// add_forces' plan with `per_vertex(i)` for each owned vertex i once all its tets are
+// evaluated: the fused objects whole, then the stages.
+template <class PerVertex>
+void ElasticForces::run_plan(const World& w, bool damping, const PerVertex& per_vertex) {
   const auto nf = static_cast<std::ptrdiff_t>(fused_.size());
   const auto nb = static_cast<std::ptrdiff_t>(unfused_blocks_.size());
-  // Every object and every block writes only its own corner forces and vertices, so
-  // neither the schedule nor the thread count can change f.
+  // Every object and every block writes only its own corner forces, and per_vertex is
+  // called once per vertex after all of them, so neither the schedule nor the thread
+  // count can change the result.
 #pragma omp parallel if (nf + nb > 1)
   {
 #pragma omp for schedule(dynamic, 1) nowait
     for (std::ptrdiff_t k = 0; k < nf; ++k) {
       const FusedObject& o = fused_[static_cast<std::size_t>(k)];
       for (std::size_t b = o.block_begin; b < o.block_end; ++b) run_block(w, damping, b);
-      gather_range(w, f, damping, o.vertex_begin, o.vertex_end);
+      for (std::size_t i = o.vertex_begin; i < o.vertex_end; ++i) per_vertex(i);
     }
+    // The rest in stages: a stage's blocks, then (after the loop's barrier) the vertices
+    // whose last tet was in it or before; every tet of theirs is done.
+    for (const Stage& st : stages_) {
+      const auto b0 = static_cast<std::ptrdiff_t>(st.block_begin), b1 = static_cast<std::ptrdiff_t>(st.block_end);
 #pragma omp for schedule(static)
-    for (std::ptrdiff_t k = 0; k < nb; ++k) run_block(w, damping, unfused_blocks_[static_cast<std::size_t>(k)]);
-    // (the loop's barrier: every unfused block is done before its vertices are gathered)
-    for (const std::pair<std::size_t, std::size_t>& range : unfused_vertices_) {
-      const std::size_t begin = range.first;  // (no structured binding: clang's OpenMP cannot capture one)
-      const auto n = static_cast<std::ptrdiff_t>(range.second - begin);
+      for (std::ptrdiff_t k = b0; k < b1; ++k) run_block(w, damping, unfused_blocks_[static_cast<std::size_t>(k)]);
+      const auto v0 = static_cast<std::ptrdiff_t>(st.vertex_begin), v1 = static_cast<std::ptrdiff_t>(st.vertex_end);
 #pragma omp for schedule(static)
-      for (std::ptrdiff_t i = 0; i < n; ++i)
-        gather_vertex(w, f, damping, tet_force_.data(), inc_offset_.data(), inc_slot_.data(), vertex_alpha_.data(),
-                      begin + static_cast<std::size_t>(i));
+      for (std::ptrdiff_t i = v0; i < v1; ++i) per_vertex(staged_vertices_[static_cast<std::size_t>(i)]);
     }
   }
+}
+
+void ElasticForces::add_forces(const World& w, std::vector<double>& f, bool damping) {
+  run_plan(w, damping, [&](std::size_t i) {
+    gather_vertex(w, f, damping, tet_force_.data(), inc_offset_.data(), inc_slot_.data(), vertex_alpha_.data(), i);
+  });
+}
+
+void ElasticForces::stream_vertex_corners(const World& w, bool damping, const std::vector<char>& fold,
+                                          const std::vector<std::size_t>& offset, double* out) {
+  if (fold.size() != w.n_owned || offset.size() != w.n_owned)
+    throw RuntimeFailure("ElasticForces: stream_vertex_corners takes a fold flag and an offset per owned vertex");
+  run_plan(w, damping, [&](std::size_t i) { write_vertex_corners(i, fold[i] != 0, out + offset[i]); });
 }
 
 namespace {

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 
@@ -94,6 +95,19 @@ std::vector<std::int32_t> interior_parts(const Incidence& inc, const std::vector
   return out;
 }
 
+// The rows first + j of xyz (3 doubles each) for every j of `rows`, appended to buf.
+void append_rows(std::vector<char>& buf, const std::vector<double>& xyz, std::size_t first,
+                 const std::vector<std::int32_t>& rows) {
+  constexpr std::size_t kRow = 3 * sizeof(double);
+  const std::size_t at = buf.size();
+  buf.resize(at + kRow * rows.size());
+  char* out = buf.data() + at;
+  for (std::int32_t j : rows) {
+    std::memcpy(out, &xyz[3 * (first + static_cast<std::size_t>(j))], kRow);
+    out += kRow;
+  }
+}
+
 double wall_seconds() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
 }  // namespace
@@ -109,6 +123,8 @@ struct SplitForces::Part {
   std::unique_ptr<ElasticForces> forces;
   std::vector<std::int32_t> verts; // mini vertex -> object-local vertex
   std::vector<char> fold;          // mini vertex: all its tets are in this part (send their sum)
+  std::vector<std::size_t> offset; // mini vertex: where its corner forces start in the stream
+  std::size_t stream_doubles = 0;  // the stream's length (write_vertex_corners over verts)
   std::vector<double> stream;      // this step's corner forces for the owner
 };
 
@@ -122,7 +138,9 @@ struct SplitForces::Merge {
   Incidence inc;
   std::vector<std::int32_t> tet_part, interior;
   std::vector<std::vector<std::int32_t>> part_vertices;  // per part (= rank): its vertices, ascending
+  std::vector<std::size_t> part_doubles;                 // per part (= rank): the doubles of its stream
   std::vector<char> holds;         // per part (= rank): it holds the object as a ghost (no positions sent)
+  std::vector<double> sums;        // merge(): each vertex's corner forces folded in tet order
 };
 
 SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitObject> plan) {
@@ -192,7 +210,14 @@ SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitOb
     }
     mw.n_owned = nv;
     mw.m_owned = mw.tet_gid.size();
-    if (mw.m_owned > 0) p->forces = std::make_unique<ElasticForces>(scene, mw);
+    if (mw.m_owned > 0) {
+      p->forces = std::make_unique<ElasticForces>(scene, mw);
+      p->offset.resize(nv);
+      for (std::size_t i = 0; i < nv; ++i) {
+        p->offset[i] = p->stream_doubles;
+        p->stream_doubles += p->forces->vertex_corner_doubles(i, p->fold[i] != 0);
+      }
+    }
     evaluated_tets_ += static_cast<std::int64_t>(mw.m_owned);
     if (!own) {
       helped_tets_ += static_cast<std::int64_t>(mw.m_owned);
@@ -218,6 +243,17 @@ SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitOb
         }
       for (std::size_t q = 0; q < g->part_vertices.size(); ++q)
         if (static_cast<int>(q) != w.rank && !g->part_vertices[q].empty()) peers_.push_back(static_cast<int>(q));
+      // What each part's stream holds: a vertex inside it, its sum; on a cut, an entry per
+      // incident tet of the part.
+      g->part_doubles.assign(static_cast<std::size_t>(nparts), 0);
+      for (std::size_t j = 0; j + 1 < inc.offset.size(); ++j) {
+        if (interior[j] >= 0) {
+          g->part_doubles[static_cast<std::size_t>(interior[j])] += 3;
+          continue;
+        }
+        for (std::int64_t e = inc.offset[j]; e < inc.offset[j + 1]; ++e)
+          g->part_doubles[static_cast<std::size_t>(so.tet_part[static_cast<std::size_t>(inc.tet[static_cast<std::size_t>(e)])])] += 3;
+      }
       g->inc = std::move(inc);
       g->tet_part = std::move(so.tet_part);
       g->interior = std::move(interior);
@@ -300,11 +336,8 @@ void SplitForces::evaluate(const World& w, bool damping, NeighbourExchange* exch
       for (std::size_t q = 0; q < g.part_vertices.size(); ++q) {
         if (static_cast<int>(q) == w.rank || g.part_vertices[q].empty()) continue;
         std::vector<char>& buf = send[peer_index(static_cast<int>(q), g.object)];
-        if (!g.holds[q])
-          for (std::int32_t j : g.part_vertices[q]) append_records(buf, &w.x[3 * (g.first + static_cast<std::size_t>(j))], 3);
-        if (g.send_v && damping)
-          for (std::int32_t j : g.part_vertices[q])
-            append_records(buf, &w.v[3 * (g.first + static_cast<std::size_t>(j))], 3);
+        if (!g.holds[q]) append_rows(buf, w.x, g.first, g.part_vertices[q]);
+        if (g.send_v && damping) append_rows(buf, w.v, g.first, g.part_vertices[q]);
       }
     }
     timed_exchange(exchange, send, in);
@@ -352,8 +385,8 @@ void SplitForces::evaluate(const World& w, bool damping, NeighbourExchange* exch
         std::copy(v, v + 3 * nv, p.mini.v.begin());
       }
     }
-    p.forces->compute_tet_forces(p.mini, damping);
-    for (std::size_t i = 0; i < nv; ++i) p.forces->append_vertex_corners(i, p.fold[i] != 0, p.stream);
+    p.stream.resize(p.stream_doubles);
+    p.forces->stream_vertex_corners(p.mini, damping, p.fold, p.offset, p.stream.data());
   }
   for (std::size_t q = 0; q < in.size(); ++q)
     if (read[q] != in[q].size())
@@ -376,50 +409,50 @@ void SplitForces::merge(const World& w, std::vector<double>& f, bool damping) {
   const std::vector<std::vector<double>>& in = forces_in_;
   std::vector<std::size_t> read(in.size(), 0);  // doubles read from each peer
   // 4. Each owned object's vertices: every corner force in ascending tet id, from the
-  // part that evaluated it (a vertex inside one part: that part's sum).
-  std::vector<double> c;
+  // part that evaluated it (a vertex inside one part: that part's sum), folded from zero.
+  // Each part's stream is checked for its length first, so the fold reads no further.
   for (const std::unique_ptr<Merge>& gp : merges_) {
-    const Merge& g = *gp;
+    Merge& g = *gp;
     const std::size_t np = g.part_vertices.size();
-    std::vector<const double*> at(np, nullptr), end(np, nullptr);
+    std::vector<const double*> at(np, nullptr);
     for (std::size_t q = 0; q < np; ++q) {
+      if (g.part_doubles[q] == 0) continue;
+      std::size_t have = 0;
       if (static_cast<int>(q) == w.rank) {
         const auto it = std::find_if(parts_.begin(), parts_.end(), [&](const auto& p) { return p->object == g.object; });
         at[q] = (*it)->stream.data();
-        end[q] = at[q] + (*it)->stream.size();
-      } else if (!g.part_vertices[q].empty()) {
+        have = (*it)->stream.size();
+      } else {
         const std::size_t r = peer_index(static_cast<int>(q), g.object);
         at[q] = in[r].data() + read[r];
-        end[q] = in[r].data() + in[r].size();
+        have = in[r].size() - read[r];
+        read[r] += g.part_doubles[q];
       }
+      if (have < g.part_doubles[q] || (static_cast<int>(q) == w.rank && have != g.part_doubles[q]))
+        throw RuntimeFailure("SplitForces: part " + std::to_string(q) + " of object " + std::to_string(g.object) +
+                             " has " + std::to_string(have) + " force components for its vertices, " +
+                             std::to_string(g.part_doubles[q]) + " expected");
     }
-    const std::vector<const double*> begin = at;
-    auto next = [&](std::size_t q) {
-      if (at[q] == nullptr || at[q] + 3 > end[q])
-        throw RuntimeFailure("SplitForces: part " + std::to_string(q) + " sent too few forces for object " +
-                             std::to_string(g.object));
-      c.insert(c.end(), at[q], at[q] + 3);
-      at[q] += 3;
-    };
     const std::size_t nv = g.inc.offset.size() - 1;
+    g.sums.resize(3 * nv);
     for (std::size_t j = 0; j < nv; ++j) {
-      c.clear();
+      double acc[3] = {0, 0, 0};
+      auto add = [&](std::size_t q) {
+        const double* c = at[q];
+        acc[0] += c[0];
+        acc[1] += c[1];
+        acc[2] += c[2];
+        at[q] = c + 3;
+      };
       if (g.interior[j] >= 0) {
-        next(static_cast<std::size_t>(g.interior[j]));
+        add(static_cast<std::size_t>(g.interior[j]));
       } else {
         for (std::int64_t e = g.inc.offset[j]; e < g.inc.offset[j + 1]; ++e)
-          next(static_cast<std::size_t>(g.tet_part[static_cast<std::size_t>(g.inc.tet[static_cast<std::size_t>(e)])]));
+          add(static_cast<std::size_t>(g.tet_part[static_cast<std::size_t>(g.inc.tet[static_cast<std::size_t>(e)])]));
       }
-      ElasticForces::add_vertex_force(w, f, damping, g.alpha, g.first + j, c.data(), c.size() / 3);
+      for (std::size_t d = 0; d < 3; ++d) g.sums[3 * j + d] = acc[d];
     }
-    for (std::size_t q = 0; q < np; ++q) {
-      if (static_cast<int>(q) == w.rank) {
-        if (at[q] != end[q])
-          throw RuntimeFailure("SplitForces: this rank's part of object " + std::to_string(g.object) + " was not used up");
-      } else if (!g.part_vertices[q].empty()) {
-        read[peer_index(static_cast<int>(q), g.object)] += static_cast<std::size_t>(at[q] - begin[q]);
-      }
-    }
+    ElasticForces::add_vertex_sums(w, f, damping, g.alpha, g.first, g.sums.data(), nv);
   }
   for (std::size_t q = 0; q < in.size(); ++q)
     if (read[q] != in[q].size())

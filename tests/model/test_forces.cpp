@@ -283,11 +283,14 @@ TEST(ElasticForces, SumDoesNotDependOnThreadCount) {
 }
 
 // add_forces evaluates small objects whole (kernels, then the gather of their vertices)
-// and larger ones in two phases. Reference: every tet's corner forces (tet_forces, one
-// tet at a time) added to its corners in ascending tet order, the order the gather
-// promises, so the result must be bitwise the same for any thread count. The scene mixes
-// an object above the fused size (box of 12 x 12 x 6 cells: 5,184 tets > 4,096), small
-// ones before and after it, and a kinematic one (no forces at all).
+// and larger ones in stages of 4,096 tets, each vertex gathered after the stage of its
+// last tet. Reference: every tet's corner forces (tet_forces, one tet at a time) added to
+// its corners in ascending tet order, the order the gather promises, so the result must
+// be bitwise the same for any thread count. The scene mixes an object above the fused
+// size and the stage (box of 12 x 12 x 6 cells: 5,184 tets > 4,096, so two stages, with
+// vertices whose tets lie in both), small ones before and after it, and a kinematic one
+// (no forces at all). The corner forces streamed in the same stages
+// (stream_vertex_corners, a split object's part) are those written after the two phases.
 TEST(ElasticForces, ObjectsEvaluatedWholeAddInTetOrder) {
   const Scene s = load_scene_from_string(
       "simulation: {dt: 1e-4, steps: 1, gravity: [0, 0, 0]}\n"
@@ -326,6 +329,23 @@ TEST(ElasticForces, ObjectsEvaluatedWholeAddInTetOrder) {
     ef.compute_tet_forces(w, false);
     ef.gather_forces(w, g, false);
     for (std::size_t k = 0; k < g.size(); ++k) ASSERT_EQ(g[k], ref[k]) << "dof " << k << " (two phases)";
+    for (const bool folded : {false, true}) {
+      std::vector<char> fold(w.n_owned);
+      std::vector<std::size_t> offset(w.n_owned);
+      std::size_t doubles = 0;
+      for (std::size_t i = 0; i < w.n_owned; ++i) {
+        fold[i] = folded == (i % 3 != 0) ? 1 : 0;  // both kinds in each run
+        offset[i] = doubles;
+        doubles += ef.vertex_corner_doubles(i, fold[i] != 0);
+      }
+      std::vector<double> two_phases(doubles, -1.0), streamed(doubles, -2.0);
+      double* out = two_phases.data();
+      for (std::size_t i = 0; i < w.n_owned; ++i) out = ef.write_vertex_corners(i, fold[i] != 0, out);
+      ASSERT_EQ(out, two_phases.data() + doubles);
+      ef.stream_vertex_corners(w, false, fold, offset, streamed.data());
+      for (std::size_t k = 0; k < doubles; ++k)
+        ASSERT_EQ(streamed[k], two_phases[k]) << "stream entry " << k << ", " << threads << " threads";
+    }
   }
   omp_set_num_threads(before);
 }
@@ -333,8 +353,8 @@ TEST(ElasticForces, ObjectsEvaluatedWholeAddInTetOrder) {
 // Objects split over ranks (split_forces.hpp): exclude_objects drops an object's tets and
 // vertices from add_forces, whether it is evaluated whole (a small one) or in two phases
 // (a large one), and leaves every other vertex's force bitwise as it was. The excluded
-// vertices' forces rebuilt from their corner forces (append_vertex_corners, each entry or
-// the fold) by add_vertex_force are bitwise add_forces' own, with both kinds of damping;
+// vertices' forces rebuilt from their corner forces (write_vertex_corners, each entry or
+// the fold, folded from zero in order) by add_vertex_sums are bitwise add_forces' own, with both kinds of damping;
 // an empty list restores the whole plan.
 TEST(ElasticForces, ExcludedObjectsRebuildFromTheirCornerForcesBitwise) {
   const Scene s = load_scene_from_string(
@@ -376,10 +396,15 @@ TEST(ElasticForces, ExcludedObjectsRebuildFromTheirCornerForcesBitwise) {
     std::vector<double> rebuilt = part;
     for (std::size_t i = 0; i < w.n_owned; ++i) {
       if (!is_excluded(i)) continue;
-      std::vector<double> c;
-      ef.append_vertex_corners(i, fold, c);
+      std::vector<double> c(ef.vertex_corner_doubles(i, fold), -1.0);
+      ASSERT_EQ(ef.write_vertex_corners(i, fold, c.data()), c.data() + c.size()) << "vertex " << i;
+      ASSERT_EQ(c.size() % 3, 0u);
+      if (fold) ASSERT_EQ(c.size(), 3u);
+      double sum[3] = {0, 0, 0};  // the entries folded from zero in their order
+      for (std::size_t k = 0; k < c.size(); k += 3)
+        for (std::size_t d = 0; d < 3; ++d) sum[d] += c[k + d];
       const double alpha = s.materials[s.objects[static_cast<std::size_t>(w.vertex_object[i])].material].damping_mass;
-      ElasticForces::add_vertex_force(w, rebuilt, true, alpha, i, c.data(), c.size() / 3);
+      ElasticForces::add_vertex_sums(w, rebuilt, true, alpha, i, sum, 1);
     }
     for (std::size_t k = 0; k < full.size(); ++k) ASSERT_EQ(rebuilt[k], full[k]) << "dof " << k << (fold ? " (fold)" : "");
   }
