@@ -72,23 +72,18 @@ void evict_caches() {
   benchmark::ClobberMemory();
 }
 
-void forces(benchmark::State& state, const char* model, bool damping, Phase phase = Phase::all, bool many = false,
-            bool cold = false) {
-  const Scene scene = box_scene(model, damping ? 1e-3 : 0.0, many);
-  World w = build_world(scene, block_partition(scene, 1), 0);
-  ElasticForces ef(scene, w);
-  deform(w);
-  std::vector<double> f(3 * w.n_local(), 0.0);
-  ef.compute_tet_forces(w, damping);
+/// Times `evaluate(f)` per iteration (after evicting the caches with `cold`) and reports
+/// nanoseconds per tet of w.
+template <class Evaluate>
+void time_evaluations(benchmark::State& state, const World& w, bool cold, std::vector<double>& f,
+                      const Evaluate& evaluate) {
   for (auto _ : state) {
     if (cold) {
       state.PauseTiming();
       evict_caches();
       state.ResumeTiming();
     }
-    if (phase == Phase::all) ef.add_forces(w, f, damping);
-    if (phase == Phase::kernel || phase == Phase::two_phases) ef.compute_tet_forces(w, damping);
-    if (phase == Phase::gather || phase == Phase::two_phases) ef.gather_forces(w, f, damping);
+    evaluate(f);
     benchmark::DoNotOptimize(f.data());
     benchmark::ClobberMemory();
   }
@@ -98,11 +93,26 @@ void forces(benchmark::State& state, const char* model, bool damping, Phase phas
   state.counters["tets"] = tets;
 }
 
+void forces(benchmark::State& state, const char* model, bool damping, Phase phase = Phase::all, bool many = false,
+            bool cold = false) {
+  const Scene scene = box_scene(model, damping ? 1e-3 : 0.0, many);
+  World w = build_world(scene, block_partition(scene, 1), 0);
+  ElasticForces ef(scene, w);
+  deform(w);
+  std::vector<double> f(3 * w.n_local(), 0.0);
+  ef.compute_tet_forces(w, damping);
+  time_evaluations(state, w, cold, f, [&](std::vector<double>& out) {
+    if (phase == Phase::all) ef.add_forces(w, out, damping);
+    if (phase == Phase::kernel || phase == Phase::two_phases) ef.compute_tet_forces(w, damping);
+    if (phase == Phase::gather || phase == Phase::two_phases) ef.gather_forces(w, out, damping);
+  });
+}
+
 /// The box as a split object whose one part is on its owner (rank 0 of one): everything
 /// SplitForces::add does on a floor's owner but the exchanges, whose cost is the network's.
-/// Its forces are bitwise add_forces' (tests/parallel/test_split_forces.cpp); the
-/// difference in time is the split path's own: the part's World, its stream of vertex sums
-/// and the merge.
+/// Its forces are bitwise add_forces' (the split floor's tests in
+/// tests/sim/mpi_test_distributed.cpp); the difference in time is the split path's own:
+/// the part's World, its stream of vertex sums and the merge.
 void split_one_part(benchmark::State& state, const char* model, bool cold) {
   const Scene scene = box_scene(model, 0.0);
   World w = build_world(scene, block_partition(scene, 1), 0);
@@ -114,20 +124,7 @@ void split_one_part(benchmark::State& state, const char* model, bool cold) {
   deform(w);
   std::vector<double> f(3 * w.n_local(), 0.0);
   split.add(w, f, false, nullptr);
-  for (auto _ : state) {
-    if (cold) {
-      state.PauseTiming();
-      evict_caches();
-      state.ResumeTiming();
-    }
-    split.add(w, f, false, nullptr);
-    benchmark::DoNotOptimize(f.data());
-    benchmark::ClobberMemory();
-  }
-  const double tets = static_cast<double>(w.tet_gid.size());
-  state.counters["ns_per_tet"] =
-      benchmark::Counter(tets, benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
-  state.counters["tets"] = tets;
+  time_evaluations(state, w, cold, f, [&](std::vector<double>& out) { split.add(w, out, false, nullptr); });
 }
 
 }  // namespace
