@@ -13,6 +13,8 @@
 #include "softcontact/mesh.hpp"
 #include "softcontact/scene.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -42,9 +44,11 @@ constexpr std::ptrdiff_t kParallelVertices = 4096;
 /// machine of docs/benchmarks.md) between the two.
 constexpr std::size_t kFusedTets = 4096;
 
-/// add_forces runs a large object's kernels in stages of this many blocks (4,096 tets,
-/// 384 KiB of corner forces) and gathers after each stage the vertices whose tets are all
-/// done, most of them still in the core's L2 cache.
+/// On one thread, add_forces runs a large object's kernels in stages of this many blocks
+/// (4,096 tets, 384 KiB of corner forces) and gathers after each stage the vertices whose
+/// tets are all done, most of them still in the core's L2 cache. (On more threads the
+/// stages' barriers and the other core's cache cost more than they save: all blocks,
+/// then all vertices.)
 constexpr std::size_t kStageBlocks = 16;
 
 LawParams params_of(const ElasticForces::Segment& s) { return {{s.lambda, s.mu}, s.young, s.beta}; }
@@ -418,15 +422,17 @@ void ElasticForces::gather_forces(const World& w, std::vector<double>& f, bool d
 }
 
 // add_forces' plan with `per_vertex(i)` for each owned vertex i once all its tets are
-// evaluated: the fused objects whole, then the stages.
+// evaluated: the fused objects whole, then the stages (one thread) or all the other
+// blocks and then their vertices (more).
 template <class PerVertex>
 void ElasticForces::run_plan(const World& w, bool damping, const PerVertex& per_vertex) {
   const auto nf = static_cast<std::ptrdiff_t>(fused_.size());
   const auto nb = static_cast<std::ptrdiff_t>(unfused_blocks_.size());
+  const bool staged = nf + nb <= 1 || omp_get_max_threads() == 1;  // (then one thread runs it all)
   // Every object and every block writes only its own corner forces, and per_vertex is
   // called once per vertex after all of them, so neither the schedule nor the thread
   // count can change the result.
-#pragma omp parallel if (nf + nb > 1)
+#pragma omp parallel if (!staged)
   {
 #pragma omp for schedule(dynamic, 1) nowait
     for (std::ptrdiff_t k = 0; k < nf; ++k) {
@@ -434,15 +440,23 @@ void ElasticForces::run_plan(const World& w, bool damping, const PerVertex& per_
       for (std::size_t b = o.block_begin; b < o.block_end; ++b) run_block(w, damping, b);
       for (std::size_t i = o.vertex_begin; i < o.vertex_end; ++i) per_vertex(i);
     }
-    // The rest in stages: a stage's blocks, then (after the loop's barrier) the vertices
-    // whose last tet was in it or before; every tet of theirs is done.
-    for (const Stage& st : stages_) {
-      const auto b0 = static_cast<std::ptrdiff_t>(st.block_begin), b1 = static_cast<std::ptrdiff_t>(st.block_end);
+    if (staged) {
+      // The rest in stages: a stage's blocks, then the vertices whose last tet was in it
+      // or before; every tet of theirs is done.
+      for (const Stage& st : stages_) {
+        for (std::size_t k = st.block_begin; k < st.block_end; ++k) run_block(w, damping, unfused_blocks_[k]);
+        for (std::size_t i = st.vertex_begin; i < st.vertex_end; ++i) per_vertex(staged_vertices_[i]);
+      }
+    } else {
 #pragma omp for schedule(static)
-      for (std::ptrdiff_t k = b0; k < b1; ++k) run_block(w, damping, unfused_blocks_[static_cast<std::size_t>(k)]);
-      const auto v0 = static_cast<std::ptrdiff_t>(st.vertex_begin), v1 = static_cast<std::ptrdiff_t>(st.vertex_end);
+      for (std::ptrdiff_t k = 0; k < nb; ++k) run_block(w, damping, unfused_blocks_[static_cast<std::size_t>(k)]);
+      // (the loop's barrier: every unfused block is done before its vertices are gathered)
+      for (const std::pair<std::size_t, std::size_t>& range : unfused_vertices_) {
+        const std::size_t begin = range.first;  // (no structured binding: clang's OpenMP cannot capture one)
+        const auto n = static_cast<std::ptrdiff_t>(range.second - begin);
 #pragma omp for schedule(static)
-      for (std::ptrdiff_t i = v0; i < v1; ++i) per_vertex(staged_vertices_[static_cast<std::size_t>(i)]);
+        for (std::ptrdiff_t i = 0; i < n; ++i) per_vertex(begin + static_cast<std::size_t>(i));
+      }
     }
   }
 }
