@@ -283,8 +283,8 @@ TEST(ElasticForces, SumDoesNotDependOnThreadCount) {
 }
 
 // add_forces evaluates small objects whole (kernels, then the gather of their vertices)
-// and larger ones in stages of 4,096 tets, each vertex gathered after the stage of its
-// last tet. Reference: every tet's corner forces (tet_forces, one tet at a time) added to
+// and larger ones, on one thread, in stages of 4,096 tets, each vertex gathered after the
+// stage of its last tet (on more, all kernels and then all vertices). Reference: every tet's corner forces (tet_forces, one tet at a time) added to
 // its corners in ascending tet order, the order the gather promises, so the result must
 // be bitwise the same for any thread count. The scene mixes an object above the fused
 // size and the stage (box of 12 x 12 x 6 cells: 5,184 tets > 4,096, so two stages, with
@@ -354,8 +354,8 @@ TEST(ElasticForces, ObjectsEvaluatedWholeAddInTetOrder) {
 // vertices from add_forces, whether it is evaluated whole (a small one) or in two phases
 // (a large one), and leaves every other vertex's force bitwise as it was. The excluded
 // vertices' forces rebuilt from their corner forces (write_vertex_corners, each entry or
-// the fold, folded from zero in order) by add_vertex_sums are bitwise add_forces' own, with both kinds of damping;
-// an empty list restores the whole plan.
+// the fold, folded from zero in order) by add_vertex_sums are bitwise add_forces' own,
+// with both kinds of damping; an empty list restores the whole plan.
 TEST(ElasticForces, ExcludedObjectsRebuildFromTheirCornerForcesBitwise) {
   const Scene s = load_scene_from_string(
       "simulation: {dt: 1e-4, steps: 1, gravity: [0, 0, 0]}\n"
