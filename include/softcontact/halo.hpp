@@ -48,6 +48,10 @@ public:
   /// sent, so that updates of the same array can follow one another. One message each
   /// way per neighbour. Collective over the neighbours.
   void update_changed(double* xyz);
+  /// Owned rows kept for update_changed: each row that some neighbour holds, once, however
+  /// many neighbours hold it (an object ghosted on every rank is kept once, not once per
+  /// rank); 0 until keep_sent.
+  std::size_t kept_rows() const { return kept_valid_ ? held_rows_.size() : 0; }
 
   // NeighbourExchange (exchange.hpp), over `comm`.
   const std::vector<int>& neighbors() const override { return neighbors_; }
@@ -74,10 +78,13 @@ private:
   void* sf_ = nullptr;  // PetscSF
   MPI_Datatype xyz_type_ = MPI_DATATYPE_NULL;
   std::vector<int> neighbors_;
-  // update_changed: per neighbour, the owned rows its ghosts hold, and this rank's ghost
-  // rows that neighbour owns, both in the order of the ghost rows on the holder.
-  std::vector<std::vector<index_t>> send_rows_, recv_rows_;
-  std::vector<std::vector<double>> kept_;  // per neighbour: its send rows as last sent
+  // update_changed: per neighbour, the owned rows its ghosts hold (as places in
+  // held_rows_), and this rank's ghost rows that neighbour owns, both in the order of the
+  // ghost rows on the holder.
+  std::vector<std::vector<index_t>> send_at_, recv_rows_;
+  std::vector<index_t> held_rows_;  // the owned rows any neighbour holds, ascending, once
+  std::vector<double> kept_;        // held_rows_ as last sent (3 per row)
+  std::vector<unsigned char> changed_;  // per held row: changed in this update_changed
   bool kept_valid_ = false;
   std::int64_t ghost_rows_ = 0;
   std::int64_t bytes_received_ = 0;

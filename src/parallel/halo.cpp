@@ -90,14 +90,28 @@ Halo::Halo(MPI_Comm comm, const World& w) : comm_(comm) {
   const std::int64_t before = bytes_received_;
   const std::vector<std::vector<char>> asked = exchange_with(neighbors_, want);
   bytes_received_ = before;  // set-up traffic, not the halo's per-step figure
-  send_rows_.assign(nn, {});
+  // Each owned row that several neighbours hold is kept and compared once: the kept
+  // rows grow with the rows held, not with how many ranks hold them.
+  std::vector<std::vector<index_t>> send_rows(nn);
   for (std::size_t k = 0; k < nn; ++k) {
-    send_rows_[k].resize(asked[k].size() / sizeof(index_t));
-    std::memcpy(send_rows_[k].data(), asked[k].data(), send_rows_[k].size() * sizeof(index_t));
-    for (index_t r : send_rows_[k])
+    send_rows[k].resize(asked[k].size() / sizeof(index_t));
+    std::memcpy(send_rows[k].data(), asked[k].data(), send_rows[k].size() * sizeof(index_t));
+    for (index_t r : send_rows[k])
       if (r < 0 || static_cast<std::size_t>(r) >= no)
         throw RuntimeFailure("Halo: rank " + std::to_string(neighbors_[k]) + " asks for row " + std::to_string(r) +
                              " of " + std::to_string(no) + " owned rows");
+    held_rows_.insert(held_rows_.end(), send_rows[k].begin(), send_rows[k].end());
+  }
+  std::sort(held_rows_.begin(), held_rows_.end());
+  held_rows_.erase(std::unique(held_rows_.begin(), held_rows_.end()), held_rows_.end());
+  held_rows_.shrink_to_fit();
+  std::vector<index_t> place(held_rows_.empty() ? 0 : static_cast<std::size_t>(held_rows_.back()) + 1, 0);
+  for (std::size_t h = 0; h < held_rows_.size(); ++h) place[static_cast<std::size_t>(held_rows_[h])] = static_cast<index_t>(h);
+  send_at_.assign(nn, {});
+  for (std::size_t k = 0; k < nn; ++k) {
+    send_at_[k].resize(send_rows[k].size());
+    for (std::size_t j = 0; j < send_rows[k].size(); ++j)
+      send_at_[k][j] = place[static_cast<std::size_t>(send_rows[k][j])];
   }
 }
 
@@ -119,13 +133,9 @@ void Halo::update(double* xyz) {
 }
 
 void Halo::keep_sent(const double* xyz) {
-  kept_.resize(send_rows_.size());
-  for (std::size_t k = 0; k < send_rows_.size(); ++k) {
-    std::vector<double>& v = kept_[k];
-    v.resize(3 * send_rows_[k].size());
-    for (std::size_t j = 0; j < send_rows_[k].size(); ++j)
-      std::memcpy(&v[3 * j], xyz + 3 * static_cast<std::size_t>(send_rows_[k][j]), 3 * sizeof(double));
-  }
+  kept_.resize(3 * held_rows_.size());
+  for (std::size_t h = 0; h < held_rows_.size(); ++h)
+    std::memcpy(&kept_[3 * h], xyz + 3 * static_cast<std::size_t>(held_rows_[h]), 3 * sizeof(double));
   kept_valid_ = true;
 }
 
@@ -133,22 +143,30 @@ void Halo::update_changed(double* xyz) {
   if (!kept_valid_) throw RuntimeFailure("Halo::update_changed without the rows of the last update (keep_sent)");
   const std::size_t nn = neighbors_.size();
   if (nn > 0) ++rounds_;
+  // Which held rows differ bitwise from what was sent last, each compared once; the kept
+  // rows become the ones sent now.
+  changed_.resize(held_rows_.size());
+  for (std::size_t h = 0; h < held_rows_.size(); ++h) {
+    const double* now = xyz + 3 * static_cast<std::size_t>(held_rows_[h]);
+    const bool c = std::memcmp(now, &kept_[3 * h], 3 * sizeof(double)) != 0;
+    changed_[h] = c ? 1 : 0;
+    if (c) std::memcpy(&kept_[3 * h], now, 3 * sizeof(double));
+  }
   std::vector<std::vector<char>> out(nn);
   std::vector<MPI_Request> req(nn);
   for (std::size_t k = 0; k < nn; ++k) {
     // A bit per listed row (1: changed), padded to whole doubles, then the changed rows.
-    const std::vector<index_t>& rows = send_rows_[k];
-    const std::size_t mask_bytes = 8 * ((rows.size() + 63) / 64);
+    const std::vector<index_t>& at_held = send_at_[k];
+    const std::size_t mask_bytes = 8 * ((at_held.size() + 63) / 64);
     // (sized for every row at once, then cut to the changed ones: no growth row by row)
     std::vector<char>& m = out[k];
-    m.assign(mask_bytes + 3 * sizeof(double) * rows.size(), 0);
+    m.assign(mask_bytes + 3 * sizeof(double) * at_held.size(), 0);
     std::size_t at = mask_bytes;
-    for (std::size_t j = 0; j < rows.size(); ++j) {
-      const double* now = xyz + 3 * static_cast<std::size_t>(rows[j]);
-      if (std::memcmp(now, &kept_[k][3 * j], 3 * sizeof(double)) == 0) continue;
-      std::memcpy(&kept_[k][3 * j], now, 3 * sizeof(double));
+    for (std::size_t j = 0; j < at_held.size(); ++j) {
+      const auto h = static_cast<std::size_t>(at_held[j]);
+      if (!changed_[h]) continue;
       m[j / 8] = static_cast<char>(m[j / 8] | (1 << (j % 8)));
-      std::memcpy(m.data() + at, now, 3 * sizeof(double));
+      std::memcpy(m.data() + at, &kept_[3 * h], 3 * sizeof(double));
       at += 3 * sizeof(double);
     }
     m.resize(at);

@@ -2,7 +2,7 @@
 // full broadcast, updates that send each neighbour only the owned rows that differ
 // bitwise from what it holds must leave every ghost row exactly as a full broadcast
 // would, one after another, and must carry a bit per held row plus 24 bytes per changed
-// row. On 1 to 4
+// row; each owned row is kept once however many neighbours hold it. On 1 to 4
 // ranks (ctest mpi.npN), every rank ghosting every other rank's objects. Reference: the
 // rows' values as functions of their global ids, computed here, not by the halo.
 #include <gtest/gtest.h>
@@ -79,7 +79,11 @@ TEST(Halo, UpdateOfChangedRowsEqualsTheFullBroadcast) {
     for (std::size_t d = 0; d < 3; ++d) w.x[3 * i + d] = std::numeric_limits<double>::quiet_NaN();
   halo.update(w.x.data());
   EXPECT_EQ(ghost_rows_hold(before), 0u);
+  EXPECT_EQ(halo.kept_rows(), 0u);
   halo.keep_sent(w.x.data());
+  // Every other rank ghosts all of this rank's objects, so every owned row is held by
+  // n - 1 neighbours and kept once: n_owned rows, not (n - 1) x n_owned.
+  EXPECT_EQ(halo.kept_rows(), n > 1 ? no : 0u) << "rank " << rank;
 
   // The bytes expected from each owner: its rows' mask (a bit per row, whole doubles),
   // then 24 bytes per changed row.
