@@ -284,13 +284,16 @@ TEST(ElasticForces, SumDoesNotDependOnThreadCount) {
 
 // add_forces evaluates small objects whole (kernels, then the gather of their vertices)
 // and larger ones, on one thread, in stages of 4,096 tets, each vertex gathered after the
-// stage of its last tet (on more, all kernels and then all vertices). Reference: every tet's corner forces (tet_forces, one tet at a time) added to
-// its corners in ascending tet order, the order the gather promises, so the result must
-// be bitwise the same for any thread count. The scene mixes an object above the fused
-// size and the stage (box of 12 x 12 x 6 cells: 5,184 tets > 4,096, so two stages, with
-// vertices whose tets lie in both), small ones before and after it, and a kinematic one
-// (no forces at all). The corner forces streamed in the same stages
-// (stream_vertex_corners, a split object's part) are those written after the two phases.
+// stage of its last tet (on more, all kernels and then all vertices). Reference: every
+// tet's corner forces (tet_forces, one tet at a time) added to its corners in ascending
+// tet order, the order the gather promises, so the result must be bitwise the same for
+// any thread count. The scene mixes an object above the fused size and the stage (box of
+// 12 x 12 x 6 cells: 5,184 tets > 4,096, so two stages, with vertices whose tets lie in
+// both), small ones before and after it, and a kinematic one (no forces at all). Each
+// evaluation follows one at other positions, so a vertex gathered before all its tets
+// are done would read their stale corner forces. The corner forces streamed in the same
+// stages (stream_vertex_corners, a split object's part) are those written after the two
+// phases.
 TEST(ElasticForces, ObjectsEvaluatedWholeAddInTetOrder) {
   const Scene s = load_scene_from_string(
       "simulation: {dt: 1e-4, steps: 1, gravity: [0, 0, 0]}\n"
@@ -320,9 +323,16 @@ TEST(ElasticForces, ObjectsEvaluatedWholeAddInTetOrder) {
   for (double v : ref) fmax = std::max(fmax, std::abs(v));
   ASSERT_GT(fmax, 0);
   const int before = omp_get_max_threads();
+  const std::vector<double> x = w.x;
+  std::vector<double> elsewhere = x;
+  perturb(elsewhere, 0.02, 22);
   for (int threads : {1, 2, 3}) {
     omp_set_num_threads(threads);
     std::vector<double> f(w.x.size(), 0.0);
+    w.x = elsewhere;
+    ef.add_forces(w, f, false);
+    w.x = x;
+    std::fill(f.begin(), f.end(), 0.0);
     ef.add_forces(w, f, false);
     for (std::size_t k = 0; k < f.size(); ++k) ASSERT_EQ(f[k], ref[k]) << "dof " << k << ", " << threads << " threads";
     std::vector<double> g(w.x.size(), 0.0);
@@ -342,6 +352,9 @@ TEST(ElasticForces, ObjectsEvaluatedWholeAddInTetOrder) {
       double* out = two_phases.data();
       for (std::size_t i = 0; i < w.n_owned; ++i) out = ef.write_vertex_corners(i, fold[i] != 0, out);
       ASSERT_EQ(out, two_phases.data() + doubles);
+      w.x = elsewhere;
+      ef.compute_tet_forces(w, false);
+      w.x = x;
       ef.stream_vertex_corners(w, false, fold, offset, streamed.data());
       for (std::size_t k = 0; k < doubles; ++k)
         ASSERT_EQ(streamed[k], two_phases[k]) << "stream entry " << k << ", " << threads << " threads";
