@@ -85,6 +85,8 @@ private:
   std::vector<index_t> held_rows_;  // the owned rows any neighbour holds, ascending, once
   std::vector<double> kept_;        // held_rows_ as last sent (3 per row)
   std::vector<unsigned char> changed_;  // per held row: changed in this update_changed
+  std::vector<std::vector<char>> out_;  // per neighbour: update_changed's message buffer
+  std::vector<char> in_;                // update_changed's receive buffer
   bool kept_valid_ = false;
   std::int64_t ghost_rows_ = 0;
   std::int64_t bytes_received_ = 0;

@@ -152,15 +152,18 @@ void Halo::update_changed(double* xyz) {
     changed_[h] = c ? 1 : 0;
     if (c) std::memcpy(&kept_[3 * h], now, 3 * sizeof(double));
   }
-  std::vector<std::vector<char>> out(nn);
+  // The messages are written into buffers kept from one update to the next: sized once
+  // for every row, where a fresh one was allocated, zeroed and faulted in each time
+  // (the same peak: all are in flight together); only the mask is cleared.
+  out_.resize(nn);
   std::vector<MPI_Request> req(nn);
   for (std::size_t k = 0; k < nn; ++k) {
     // A bit per listed row (1: changed), padded to whole doubles, then the changed rows.
     const std::vector<index_t>& at_held = send_at_[k];
     const std::size_t mask_bytes = 8 * ((at_held.size() + 63) / 64);
-    // (sized for every row at once, then cut to the changed ones: no growth row by row)
-    std::vector<char>& m = out[k];
-    m.assign(mask_bytes + 3 * sizeof(double) * at_held.size(), 0);
+    std::vector<char>& m = out_[k];
+    m.resize(mask_bytes + 3 * sizeof(double) * at_held.size());
+    std::memset(m.data(), 0, mask_bytes);
     std::size_t at = mask_bytes;
     for (std::size_t j = 0; j < at_held.size(); ++j) {
       const auto h = static_cast<std::size_t>(at_held[j]);
@@ -169,10 +172,9 @@ void Halo::update_changed(double* xyz) {
       std::memcpy(m.data() + at, &kept_[3 * h], 3 * sizeof(double));
       at += 3 * sizeof(double);
     }
-    m.resize(at);
-    MPI_Isend(m.data(), static_cast<int>(m.size()), MPI_BYTE, neighbors_[k], kTagChanged, comm_, &req[k]);
+    MPI_Isend(m.data(), static_cast<int>(at), MPI_BYTE, neighbors_[k], kTagChanged, comm_, &req[k]);
   }
-  std::vector<char> in;
+  std::vector<char>& in = in_;
   for (std::size_t k = 0; k < nn; ++k) {
     const int count = receive_probed(comm_, neighbors_[k], kTagChanged, in);
     bytes_received_ += count;
