@@ -43,15 +43,17 @@ public:
   void keep_sent(const double* xyz);
   bool has_kept() const { return kept_valid_; }
   /// update()'s result when the ghost rows hold what is kept: each owner sends a
-  /// neighbour only the rows that differ from it bitwise (a bit per row the neighbour
-  /// holds, then those rows), and the other rows stay as they are; then keeps the rows
-  /// sent, so that updates of the same array can follow one another. One message each
-  /// way per neighbour. Collective over the neighbours.
+  /// neighbour only the rows that differ from it bitwise (per object the neighbour holds,
+  /// in ascending order: a bit per row, padded to whole doubles, then those rows), and
+  /// the other rows stay as they are; then keeps the rows sent, so that updates of the
+  /// same array can follow one another. One message each way per neighbour, the same
+  /// segment of an object going to every neighbour that holds it. Collective over the
+  /// neighbours.
   void update_changed(double* xyz);
   /// Owned rows kept for update_changed: each row that some neighbour holds, once, however
   /// many neighbours hold it (an object ghosted on every rank is kept once, not once per
   /// rank); 0 until keep_sent.
-  std::size_t kept_rows() const { return kept_valid_ ? held_rows_.size() : 0; }
+  std::size_t kept_rows() const { return kept_valid_ ? held_rows_ : 0; }
 
   // NeighbourExchange (exchange.hpp), over `comm`.
   const std::vector<int>& neighbors() const override { return neighbors_; }
@@ -78,15 +80,25 @@ private:
   void* sf_ = nullptr;  // PetscSF
   MPI_Datatype xyz_type_ = MPI_DATATYPE_NULL;
   std::vector<int> neighbors_;
-  // update_changed: per neighbour, the owned rows its ghosts hold (as places in
-  // held_rows_), and this rank's ghost rows that neighbour owns, both in the order of the
-  // ghost rows on the holder.
-  std::vector<std::vector<index_t>> send_at_, recv_rows_;
-  std::vector<index_t> held_rows_;  // the owned rows any neighbour holds, ascending, once
-  std::vector<double> kept_;        // held_rows_ as last sent (3 per row)
-  std::vector<unsigned char> changed_;  // per held row: changed in this update_changed
-  std::vector<std::vector<char>> out_;  // per neighbour: update_changed's message buffer
-  std::vector<char> in_;                // update_changed's receive buffer
+  // update_changed. Holder: per neighbour, this rank's ghost rows that neighbour owns, in
+  // ghost-row order, and the length of each object's run in them. Owner: each owned
+  // object some neighbour holds, once (its first row, rows, place in kept_ in rows, and
+  // place of its segment in segments_), and per neighbour the objects it holds, in its
+  // order (places in held_).
+  std::vector<std::vector<index_t>> recv_rows_, recv_runs_;
+  struct HeldObject {
+    index_t first, rows;
+    std::size_t kept, segment;
+  };
+  std::vector<HeldObject> held_;
+  std::vector<std::vector<index_t>> send_objects_;
+  std::size_t held_rows_ = 0;
+  std::vector<double> kept_;                // the held objects' rows as last sent (3 per row)
+  std::vector<char> segments_;              // each held object's message segment, sized for all its rows
+  std::vector<std::size_t> segment_bytes_;  // per held object: its segment's bytes in this update
+  std::vector<char> in_;                    // update_changed's receive buffer
+  static std::size_t segment_mask_bytes(std::size_t rows);
+  static std::size_t segment_capacity(std::size_t rows);
   bool kept_valid_ = false;
   std::int64_t ghost_rows_ = 0;
   std::int64_t bytes_received_ = 0;

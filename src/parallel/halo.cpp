@@ -75,13 +75,19 @@ Halo::Halo(MPI_Comm comm, const World& w) : comm_(comm) {
   // For update_changed: each rank tells the owners of its ghosts which of their rows it
   // holds (the roots' indices, in its ghost-row order), so that an owner can send a row
   // by its place in that list. The neighbours are symmetric ("within reach" is), so
-  // every rank expects a list from each of its neighbours.
+  // every rank expects a list from each of its neighbours. Ghosts are whole objects, so
+  // each list is whole owned objects, ascending, each in its rows' order: the holder
+  // keeps the length of each object's run, the owner which objects the list names.
   const std::size_t nn = neighbors_.size();
   recv_rows_.assign(nn, {});
+  recv_runs_.assign(nn, {});
   std::vector<std::vector<char>> want(nn);
   for (std::size_t i = no; i < n; ++i) {
     const auto at = std::lower_bound(neighbors_.begin(), neighbors_.end(), static_cast<int>(remote[i - no].rank));
     const auto k = static_cast<std::size_t>(at - neighbors_.begin());
+    if (recv_rows_[k].empty() || w.vertex_object[static_cast<std::size_t>(recv_rows_[k].back())] != w.vertex_object[i])
+      recv_runs_[k].push_back(0);
+    ++recv_runs_[k].back();
     recv_rows_[k].push_back(static_cast<index_t>(i));
     const auto root = static_cast<index_t>(remote[i - no].index);
     const char* b = reinterpret_cast<const char*>(&root);
@@ -90,29 +96,45 @@ Halo::Halo(MPI_Comm comm, const World& w) : comm_(comm) {
   const std::int64_t before = bytes_received_;
   const std::vector<std::vector<char>> asked = exchange_with(neighbors_, want);
   bytes_received_ = before;  // set-up traffic, not the halo's per-step figure
-  // Each owned row that several neighbours hold is kept and compared once: the kept
-  // rows grow with the rows held, not with how many ranks hold them.
-  std::vector<std::vector<index_t>> send_rows(nn);
+  // Each owned object that some neighbour holds is kept, compared and written into its
+  // segment once, however many neighbours hold it: the owner's work and memory grow with
+  // the rows held, not with the ranks that hold them.
+  std::vector<index_t> held_of(w.layout.size(), -1);  // per object: its place in held_
+  send_objects_.assign(nn, {});
   for (std::size_t k = 0; k < nn; ++k) {
-    send_rows[k].resize(asked[k].size() / sizeof(index_t));
-    std::memcpy(send_rows[k].data(), asked[k].data(), send_rows[k].size() * sizeof(index_t));
-    for (index_t r : send_rows[k])
+    std::vector<index_t> rows(asked[k].size() / sizeof(index_t));
+    std::memcpy(rows.data(), asked[k].data(), rows.size() * sizeof(index_t));
+    for (std::size_t j = 0; j < rows.size();) {
+      const index_t r = rows[j];
       if (r < 0 || static_cast<std::size_t>(r) >= no)
         throw RuntimeFailure("Halo: rank " + std::to_string(neighbors_[k]) + " asks for row " + std::to_string(r) +
                              " of " + std::to_string(no) + " owned rows");
-    held_rows_.insert(held_rows_.end(), send_rows[k].begin(), send_rows[k].end());
+      const int o = w.vertex_object[static_cast<std::size_t>(r)];
+      const index_t first = w.vertex_offset[static_cast<std::size_t>(o)];
+      const auto count = static_cast<std::size_t>(w.layout[static_cast<std::size_t>(o)].vertex_count);
+      bool whole = r == first && j + count <= rows.size();
+      for (std::size_t q = 0; whole && q < count; ++q) whole = rows[j + q] == first + static_cast<index_t>(q);
+      if (!whole || (!send_objects_[k].empty() && held_[static_cast<std::size_t>(send_objects_[k].back())].first >= first))
+        throw RuntimeFailure("Halo: rank " + std::to_string(neighbors_[k]) + " asks for rows that are not whole objects " +
+                             "in ascending order (at row " + std::to_string(r) + ")");
+      if (held_of[static_cast<std::size_t>(o)] < 0) {
+        held_of[static_cast<std::size_t>(o)] = static_cast<index_t>(held_.size());
+        held_.push_back({first, static_cast<index_t>(count), 0, 0});
+      }
+      send_objects_[k].push_back(held_of[static_cast<std::size_t>(o)]);
+      j += count;
+    }
   }
-  std::sort(held_rows_.begin(), held_rows_.end());
-  held_rows_.erase(std::unique(held_rows_.begin(), held_rows_.end()), held_rows_.end());
-  held_rows_.shrink_to_fit();
-  std::vector<index_t> place(held_rows_.empty() ? 0 : static_cast<std::size_t>(held_rows_.back()) + 1, 0);
-  for (std::size_t h = 0; h < held_rows_.size(); ++h) place[static_cast<std::size_t>(held_rows_[h])] = static_cast<index_t>(h);
-  send_at_.assign(nn, {});
-  for (std::size_t k = 0; k < nn; ++k) {
-    send_at_[k].resize(send_rows[k].size());
-    for (std::size_t j = 0; j < send_rows[k].size(); ++j)
-      send_at_[k][j] = place[static_cast<std::size_t>(send_rows[k][j])];
+  std::size_t rows = 0, bytes = 0;
+  for (HeldObject& h : held_) {
+    h.kept = rows;
+    h.segment = bytes;
+    rows += static_cast<std::size_t>(h.rows);
+    bytes += segment_capacity(static_cast<std::size_t>(h.rows));
   }
+  held_rows_ = rows;
+  segment_bytes_.assign(held_.size(), 0);
+  segments_.resize(bytes);
 }
 
 Halo::~Halo() {
@@ -132,10 +154,14 @@ void Halo::update(double* xyz) {
   kept_valid_ = false;
 }
 
+std::size_t Halo::segment_mask_bytes(std::size_t rows) { return 8 * ((rows + 63) / 64); }
+std::size_t Halo::segment_capacity(std::size_t rows) { return segment_mask_bytes(rows) + 3 * sizeof(double) * rows; }
+
 void Halo::keep_sent(const double* xyz) {
-  kept_.resize(3 * held_rows_.size());
-  for (std::size_t h = 0; h < held_rows_.size(); ++h)
-    std::memcpy(&kept_[3 * h], xyz + 3 * static_cast<std::size_t>(held_rows_[h]), 3 * sizeof(double));
+  kept_.resize(3 * held_rows_);
+  for (const HeldObject& h : held_)
+    std::memcpy(&kept_[3 * h.kept], xyz + 3 * static_cast<std::size_t>(h.first),
+                3 * sizeof(double) * static_cast<std::size_t>(h.rows));
   kept_valid_ = true;
 }
 
@@ -143,53 +169,85 @@ void Halo::update_changed(double* xyz) {
   if (!kept_valid_) throw RuntimeFailure("Halo::update_changed without the rows of the last update (keep_sent)");
   const std::size_t nn = neighbors_.size();
   if (nn > 0) ++rounds_;
-  // Which held rows differ bitwise from what was sent last, each compared once; the kept
-  // rows become the ones sent now.
-  changed_.resize(held_rows_.size());
-  for (std::size_t h = 0; h < held_rows_.size(); ++h) {
-    const double* now = xyz + 3 * static_cast<std::size_t>(held_rows_[h]);
-    const bool c = std::memcmp(now, &kept_[3 * h], 3 * sizeof(double)) != 0;
-    changed_[h] = c ? 1 : 0;
-    if (c) std::memcpy(&kept_[3 * h], now, 3 * sizeof(double));
-  }
-  // The messages are written into buffers kept from one update to the next: sized once
-  // for every row, where a fresh one was allocated, zeroed and faulted in each time
-  // (the same peak: all are in flight together); only the mask is cleared.
-  out_.resize(nn);
-  std::vector<MPI_Request> req(nn);
-  for (std::size_t k = 0; k < nn; ++k) {
-    // A bit per listed row (1: changed), padded to whole doubles, then the changed rows.
-    const std::vector<index_t>& at_held = send_at_[k];
-    const std::size_t mask_bytes = 8 * ((at_held.size() + 63) / 64);
-    std::vector<char>& m = out_[k];
-    m.resize(mask_bytes + 3 * sizeof(double) * at_held.size());
-    std::memset(m.data(), 0, mask_bytes);
+  // Each held object's segment, once: a bit per row (1: changed bitwise since the last
+  // update), padded to whole doubles, then the changed rows; the kept rows become the
+  // ones sent now. The segments stay from one update to the next, so only the masks are
+  // cleared.
+  for (std::size_t j = 0; j < held_.size(); ++j) {
+    const HeldObject& h = held_[j];
+    const auto nr = static_cast<std::size_t>(h.rows);
+    char* m = segments_.data() + h.segment;
+    const std::size_t mask_bytes = segment_mask_bytes(nr);
+    std::memset(m, 0, mask_bytes);
     std::size_t at = mask_bytes;
-    for (std::size_t j = 0; j < at_held.size(); ++j) {
-      const auto h = static_cast<std::size_t>(at_held[j]);
-      if (!changed_[h]) continue;
-      m[j / 8] = static_cast<char>(m[j / 8] | (1 << (j % 8)));
-      std::memcpy(m.data() + at, &kept_[3 * h], 3 * sizeof(double));
+    const double* now = xyz + 3 * static_cast<std::size_t>(h.first);
+    double* kept = &kept_[3 * h.kept];
+    for (std::size_t r = 0; r < nr; ++r, now += 3, kept += 3) {
+      if (std::memcmp(now, kept, 3 * sizeof(double)) == 0) continue;
+      std::memcpy(kept, now, 3 * sizeof(double));
+      m[r / 8] = static_cast<char>(m[r / 8] | (1 << (r % 8)));
+      std::memcpy(m + at, now, 3 * sizeof(double));
       at += 3 * sizeof(double);
     }
-    MPI_Isend(m.data(), static_cast<int>(at), MPI_BYTE, neighbors_[k], kTagChanged, comm_, &req[k]);
+    segment_bytes_[j] = at;
+  }
+  // Each neighbour's message: the segments of the objects it holds, in its order, sent
+  // from where they lie (one datatype of their places): no copy per neighbour.
+  std::vector<MPI_Request> req(nn);
+  std::vector<int> lengths;
+  std::vector<MPI_Aint> places;
+  for (std::size_t k = 0; k < nn; ++k) {
+    const std::vector<index_t>& objs = send_objects_[k];
+    lengths.clear();
+    places.clear();
+    std::size_t total = 0;
+    for (index_t j : objs) {
+      const HeldObject& h = held_[static_cast<std::size_t>(j)];
+      const std::size_t len = segment_bytes_[static_cast<std::size_t>(j)];
+      total += len;
+      MPI_Aint a = 0;
+      MPI_Get_address(segments_.data() + h.segment, &a);
+      lengths.push_back(static_cast<int>(len));
+      places.push_back(a);
+    }
+    if (total > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+      throw RuntimeFailure("Halo: changed rows of " + std::to_string(total) + " bytes for rank " +
+                           std::to_string(neighbors_[k]) + ", over MPI's 2^31 - 1 bytes per message");
+    if (objs.empty()) {
+      MPI_Isend(nullptr, 0, MPI_BYTE, neighbors_[k], kTagChanged, comm_, &req[k]);
+    } else if (objs.size() == 1) {
+      MPI_Isend(segments_.data() + held_[static_cast<std::size_t>(objs[0])].segment, lengths[0], MPI_BYTE,
+                neighbors_[k], kTagChanged, comm_, &req[k]);
+    } else {
+      MPI_Datatype t = MPI_DATATYPE_NULL;
+      MPI_Type_create_hindexed(static_cast<int>(objs.size()), lengths.data(), places.data(), MPI_BYTE, &t);
+      MPI_Type_commit(&t);
+      MPI_Isend(MPI_BOTTOM, 1, t, neighbors_[k], kTagChanged, comm_, &req[k]);
+      MPI_Type_free(&t);  // (freed once the send is done)
+    }
   }
   std::vector<char>& in = in_;
   for (std::size_t k = 0; k < nn; ++k) {
     const int count = receive_probed(comm_, neighbors_[k], kTagChanged, in);
     bytes_received_ += count;
     const std::vector<index_t>& rows = recv_rows_[k];
-    const std::size_t mask_bytes = 8 * ((rows.size() + 63) / 64);
-    std::size_t at = mask_bytes;
-    if (in.size() < mask_bytes)
-      throw RuntimeFailure("Halo: rank " + std::to_string(neighbors_[k]) + " sent " + std::to_string(count) +
-                           " bytes of changed rows, less than the mask of " + std::to_string(rows.size()) + " rows");
-    for (std::size_t j = 0; j < rows.size(); ++j) {
-      if (!((static_cast<unsigned char>(in[j / 8]) >> (j % 8)) & 1u)) continue;
-      if (at + 3 * sizeof(double) > in.size())
-        throw RuntimeFailure("Halo: rank " + std::to_string(neighbors_[k]) + " sent too few changed rows");
-      std::memcpy(xyz + 3 * static_cast<std::size_t>(rows[j]), in.data() + at, 3 * sizeof(double));
-      at += 3 * sizeof(double);
+    std::size_t at = 0, row = 0;
+    for (index_t run : recv_runs_[k]) {
+      const auto nr = static_cast<std::size_t>(run);
+      const std::size_t mask_bytes = segment_mask_bytes(nr);
+      if (at + mask_bytes > in.size())
+        throw RuntimeFailure("Halo: rank " + std::to_string(neighbors_[k]) + " sent " + std::to_string(count) +
+                             " bytes of changed rows, too few for the masks of its objects' rows");
+      const char* mask = in.data() + at;
+      at += mask_bytes;
+      for (std::size_t r = 0; r < nr; ++r) {
+        if (!((static_cast<unsigned char>(mask[r / 8]) >> (r % 8)) & 1u)) continue;
+        if (at + 3 * sizeof(double) > in.size())
+          throw RuntimeFailure("Halo: rank " + std::to_string(neighbors_[k]) + " sent too few changed rows");
+        std::memcpy(xyz + 3 * static_cast<std::size_t>(rows[row + r]), in.data() + at, 3 * sizeof(double));
+        at += 3 * sizeof(double);
+      }
+      row += nr;
     }
     if (at != in.size())
       throw RuntimeFailure("Halo: rank " + std::to_string(neighbors_[k]) + " sent " + std::to_string(in.size() - at) +

@@ -1,8 +1,9 @@
 // The halo's update of changed rows only (Halo::keep_sent, Halo::update_changed): after a
 // full broadcast, updates that send each neighbour only the owned rows that differ
 // bitwise from what it holds must leave every ghost row exactly as a full broadcast
-// would, one after another, and must carry a bit per held row plus 24 bytes per changed
-// row; each owned row is kept once however many neighbours hold it. On 1 to 4
+// would, one after another, and must carry a bit per held row (whole doubles per object)
+// plus 24 bytes per changed row; each owned row is kept once however many neighbours
+// hold it. On 1 to 4
 // ranks (ctest mpi.npN), every rank ghosting every other rank's objects. Reference: the
 // rows' values as functions of their global ids, computed here, not by the halo.
 #include <gtest/gtest.h>
@@ -85,18 +86,18 @@ TEST(Halo, UpdateOfChangedRowsEqualsTheFullBroadcast) {
   // n - 1 neighbours and kept once: n_owned rows, not (n - 1) x n_owned.
   EXPECT_EQ(halo.kept_rows(), n > 1 ? no : 0u) << "rank " << rank;
 
-  // The bytes expected from each owner: its rows' mask (a bit per row, whole doubles),
+  // The bytes expected: per ghost object, its rows' mask (a bit per row, whole doubles),
   // then 24 bytes per changed row.
   std::map<int, std::int64_t> rows_of, changed_of;
   for (std::size_t i = no; i < nl; ++i) {
-    const int owner = w.layout[static_cast<std::size_t>(w.vertex_object[i])].rank;
-    ++rows_of[owner];
-    changed_of[owner] += changed(w.vertex_gid[i]) ? 1 : 0;
+    const int object = w.vertex_object[i];
+    ++rows_of[object];
+    changed_of[object] += changed(w.vertex_gid[i]) ? 1 : 0;
   }
   std::int64_t expected = 0, changed_rows = 0;
-  for (const auto& [owner, rows] : rows_of) {
-    expected += 8 * ((rows + 63) / 64) + 24 * changed_of[owner];
-    changed_rows += changed_of[owner];
+  for (const auto& [object, rows] : rows_of) {
+    expected += 8 * ((rows + 63) / 64) + 24 * changed_of[object];
+    changed_rows += changed_of[object];
   }
   if (n > 1) EXPECT_GT(changed_rows, 0);
 
@@ -111,7 +112,7 @@ TEST(Halo, UpdateOfChangedRowsEqualsTheFullBroadcast) {
   const std::int64_t bytes1 = halo.bytes_received();
   halo.update_changed(w.x.data());
   std::int64_t masks = 0;
-  for (const auto& [owner, rows] : rows_of) masks += 8 * ((rows + 63) / 64);
+  for (const auto& [object, rows] : rows_of) masks += 8 * ((rows + 63) / 64);
   EXPECT_EQ(halo.bytes_received() - bytes1, masks);
   EXPECT_EQ(ghost_rows_hold(after), 0u);
 
