@@ -46,9 +46,9 @@ public:
   /// neighbour only the rows that differ from it bitwise (per object the neighbour holds,
   /// in ascending order: a bit per row, padded to whole doubles, then those rows), and
   /// the other rows stay as they are; then keeps the rows sent, so that updates of the
-  /// same array can follow one another. One message each way per neighbour, the same
-  /// segment of an object going to every neighbour that holds it. Collective over the
-  /// neighbours.
+  /// same array can follow one another. One message each way per neighbour; each
+  /// object's segment is written once, whatever the neighbours that hold it. Collective
+  /// over the neighbours.
   void update_changed(double* xyz);
   /// Owned rows kept for update_changed: each row that some neighbour holds, once, however
   /// many neighbours hold it (an object ghosted on every rank is kept once, not once per
@@ -96,6 +96,7 @@ private:
   std::vector<double> kept_;                // the held objects' rows as last sent (3 per row)
   std::vector<char> segments_;              // each held object's message segment, sized for all its rows
   std::vector<std::size_t> segment_bytes_;  // per held object: its segment's bytes in this update
+  std::vector<std::vector<char>> out_;      // per neighbour holding several objects: its message
   std::vector<char> in_;                    // update_changed's receive buffer
   static std::size_t segment_mask_bytes(std::size_t rows);
   static std::size_t segment_capacity(std::size_t rows);

@@ -191,40 +191,36 @@ void Halo::update_changed(double* xyz) {
     }
     segment_bytes_[j] = at;
   }
-  // Each neighbour's message: the segments of the objects it holds, in its order, sent
-  // from where they lie (one datatype of their places): no copy per neighbour.
+  // Each neighbour's message: the segments of the objects it holds, in its order, copied
+  // whole into one buffer per neighbour, kept between updates. (Sent from where they
+  // lie, by one MPI datatype of their places, it was slower: soft_floor on 4 ranks,
+  // steps per second lower in 11 of 14 pairs, docs/benchmarks.md; a non-contiguous
+  // message goes through Open MPI's shared-memory fragments, a contiguous one is copied
+  // once.) A neighbour that holds one object gets its segment as it lies.
+  out_.resize(nn);
   std::vector<MPI_Request> req(nn);
-  std::vector<int> lengths;
-  std::vector<MPI_Aint> places;
   for (std::size_t k = 0; k < nn; ++k) {
     const std::vector<index_t>& objs = send_objects_[k];
-    lengths.clear();
-    places.clear();
     std::size_t total = 0;
-    for (index_t j : objs) {
-      const HeldObject& h = held_[static_cast<std::size_t>(j)];
-      const std::size_t len = segment_bytes_[static_cast<std::size_t>(j)];
-      total += len;
-      MPI_Aint a = 0;
-      MPI_Get_address(segments_.data() + h.segment, &a);
-      lengths.push_back(static_cast<int>(len));
-      places.push_back(a);
-    }
+    for (index_t j : objs) total += segment_bytes_[static_cast<std::size_t>(j)];
     if (total > static_cast<std::size_t>(std::numeric_limits<int>::max()))
       throw RuntimeFailure("Halo: changed rows of " + std::to_string(total) + " bytes for rank " +
                            std::to_string(neighbors_[k]) + ", over MPI's 2^31 - 1 bytes per message");
-    if (objs.empty()) {
-      MPI_Isend(nullptr, 0, MPI_BYTE, neighbors_[k], kTagChanged, comm_, &req[k]);
-    } else if (objs.size() == 1) {
-      MPI_Isend(segments_.data() + held_[static_cast<std::size_t>(objs[0])].segment, lengths[0], MPI_BYTE,
-                neighbors_[k], kTagChanged, comm_, &req[k]);
-    } else {
-      MPI_Datatype t = MPI_DATATYPE_NULL;
-      MPI_Type_create_hindexed(static_cast<int>(objs.size()), lengths.data(), places.data(), MPI_BYTE, &t);
-      MPI_Type_commit(&t);
-      MPI_Isend(MPI_BOTTOM, 1, t, neighbors_[k], kTagChanged, comm_, &req[k]);
-      MPI_Type_free(&t);  // (freed once the send is done)
+    const char* data = nullptr;
+    if (objs.size() == 1) {
+      data = segments_.data() + held_[static_cast<std::size_t>(objs[0])].segment;
+    } else if (!objs.empty()) {
+      std::vector<char>& m = out_[k];
+      if (m.size() < total) m.resize(total);
+      std::size_t at = 0;
+      for (index_t j : objs) {
+        const std::size_t len = segment_bytes_[static_cast<std::size_t>(j)];
+        std::memcpy(m.data() + at, segments_.data() + held_[static_cast<std::size_t>(j)].segment, len);
+        at += len;
+      }
+      data = m.data();
     }
+    MPI_Isend(data, static_cast<int>(total), MPI_BYTE, neighbors_[k], kTagChanged, comm_, &req[k]);
   }
   std::vector<char>& in = in_;
   for (std::size_t k = 0; k < nn; ++k) {
