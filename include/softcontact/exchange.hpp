@@ -26,6 +26,12 @@ public:
   /// be neighbours.) An exchange without it throws.
   virtual std::vector<std::vector<char>> exchange_with(const std::vector<int>& peers,
                                                        const std::vector<std::vector<char>>& send);
+  /// exchange_with for messages of doubles, into buffers the caller keeps from one call
+  /// to the next: recv[k] is resized to what peers[k] sent, so a buffer of that size
+  /// already is neither reallocated nor cleared (a step's exchanges of the same sizes
+  /// allocate and zero nothing). An exchange without it throws, as for exchange_with.
+  virtual void exchange_doubles(const std::vector<int>& peers, const std::vector<std::vector<double>>& send,
+                                std::vector<std::vector<double>>& recv);
 
   /// This rank, and the number of ranks, of the communicator.
   virtual int rank() const = 0;

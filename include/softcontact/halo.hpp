@@ -60,6 +60,8 @@ public:
   std::vector<std::vector<char>> exchange_bytes(const std::vector<std::vector<char>>& send) override;
   std::vector<std::vector<char>> exchange_with(const std::vector<int>& peers,
                                                const std::vector<std::vector<char>>& send) override;
+  void exchange_doubles(const std::vector<int>& peers, const std::vector<std::vector<double>>& send,
+                        std::vector<std::vector<double>>& recv) override;
   int rank() const override { return rank_; }
   int ranks() const override { return ranks_; }
   std::vector<std::vector<char>> gather_to_root(const std::vector<char>& mine) override;
@@ -100,6 +102,9 @@ private:
   std::vector<char> in_;                    // update_changed's receive buffer
   static std::size_t segment_mask_bytes(std::size_t rows);
   static std::size_t segment_capacity(std::size_t rows);
+  template <class T>
+  void exchange_records(const std::vector<int>& peers, const std::vector<std::vector<T>>& send,
+                        std::vector<std::vector<T>>& recv);
   bool kept_valid_ = false;
   std::int64_t ghost_rows_ = 0;
   std::int64_t bytes_received_ = 0;

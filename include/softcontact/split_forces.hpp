@@ -113,14 +113,17 @@ private:
   struct Part;
   struct Merge;
   std::size_t peer_index(int r, int object) const;
-  void timed_exchange(NeighbourExchange* exchange, const std::vector<std::vector<char>>& send,
-                      std::vector<std::vector<double>>& recv);
+  void timed_exchange(NeighbourExchange* exchange, std::vector<std::vector<double>>& recv);
 
   std::vector<std::unique_ptr<Part>> parts_;    // ascending object
   std::vector<std::unique_ptr<Merge>> merges_;  // ascending object: the owned split objects
   std::vector<int> owned_;
   std::vector<int> peers_;                      // ascending
-  std::vector<std::vector<double>> forces_in_;  // evaluate(): each peer's forces for the owned objects
+  // evaluate()'s messages, per peer, kept from one step to the next (the exchanges of a
+  // step have the same sizes as the last step's, so they allocate and zero nothing): what
+  // this rank sends, the states the owners sent its parts, and the forces the parts sent
+  // for its owned objects (read by merge()).
+  std::vector<std::vector<double>> send_, state_in_, forces_in_;
   bool evaluated_ = false;
   std::int64_t doubles_sent_ = 0;
   std::int64_t helped_tets_ = 0, evaluated_tets_ = 0;

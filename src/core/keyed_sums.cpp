@@ -14,6 +14,11 @@ std::vector<std::vector<char>> NeighbourExchange::exchange_with(const std::vecto
   throw RuntimeFailure("this exchange has no messages between ranks that are not neighbours");
 }
 
+void NeighbourExchange::exchange_doubles(const std::vector<int>&, const std::vector<std::vector<double>>&,
+                                         std::vector<std::vector<double>>&) {
+  throw RuntimeFailure("this exchange has no messages between ranks that are not neighbours");
+}
+
 void KeyedSums::plan(NeighbourExchange* exchange, const std::vector<int>& owner, const std::vector<gid_t>& gid,
                      std::function<std::int32_t(gid_t)> slot_of) {
   SC_ASSERT(owner.size() == gid.size());

@@ -17,15 +17,23 @@ void petsc_check(PetscErrorCode e, const char* what) {
 }
 constexpr int kTagData = 7102, kTagChanged = 7104;
 
-// The next message from `peer` with `tag`, of whatever size (MPI_Mprobe), into `into`;
-// returns its bytes.
-int receive_probed(MPI_Comm comm, int peer, int tag, std::vector<char>& into) {
+// The next message from `peer` with `tag`, of whatever size (MPI_Mprobe), into `into`,
+// resized to whole records of T (a buffer of that size already is not touched before the
+// receive); returns its bytes.
+template <class T>
+int receive_probed(MPI_Comm comm, int peer, int tag, std::vector<T>& into) {
   MPI_Message msg;
   MPI_Status st;
   MPI_Mprobe(peer, tag, comm, &msg, &st);
   int count = 0;
   MPI_Get_count(&st, MPI_BYTE, &count);
-  into.resize(static_cast<std::size_t>(count));
+  if (static_cast<std::size_t>(count) % sizeof(T) != 0) {
+    std::vector<char> refused(static_cast<std::size_t>(count));  // received whole, so no receive is left pending
+    MPI_Mrecv(refused.data(), count, MPI_BYTE, &msg, MPI_STATUS_IGNORE);
+    throw RuntimeFailure("Halo: rank " + std::to_string(peer) + " sent " + std::to_string(count) + " bytes, not whole " +
+                         std::to_string(sizeof(T)) + "-byte records");
+  }
+  into.resize(static_cast<std::size_t>(count) / sizeof(T));
   MPI_Mrecv(into.data(), count, MPI_BYTE, &msg, MPI_STATUS_IGNORE);
   return count;
 }
@@ -260,23 +268,36 @@ std::vector<std::vector<char>> Halo::exchange_bytes(const std::vector<std::vecto
 // message is matched by a probe (MPI_Mprobe), so no separate round of sizes goes first.
 // Between two ranks the exchanges come in the same order on both sides, and MPI keeps
 // the order of messages of one tag between a pair, so each probe finds this exchange's.
-std::vector<std::vector<char>> Halo::exchange_with(const std::vector<int>& peers,
-                                                   const std::vector<std::vector<char>>& send) {
+template <class T>
+void Halo::exchange_records(const std::vector<int>& peers, const std::vector<std::vector<T>>& send,
+                            std::vector<std::vector<T>>& recv) {
   SC_ASSERT(send.size() == peers.size());
   const std::size_t nn = peers.size();
-  std::vector<std::vector<char>> recv(nn);
-  if (nn == 0) return recv;
+  recv.resize(nn);
+  if (nn == 0) return;
   ++rounds_;
   std::vector<MPI_Request> req(nn);
   for (std::size_t k = 0; k < nn; ++k) {
-    if (send[k].size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
-      throw RuntimeFailure("Halo: a message of " + std::to_string(send[k].size()) + " bytes to rank " +
+    const std::size_t bytes = send[k].size() * sizeof(T);
+    if (bytes > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+      throw RuntimeFailure("Halo: a message of " + std::to_string(bytes) + " bytes to rank " +
                            std::to_string(peers[k]) + " is over MPI's 2^31 - 1 bytes per message");
-    MPI_Isend(send[k].data(), static_cast<int>(send[k].size()), MPI_BYTE, peers[k], kTagData, comm_, &req[k]);
+    MPI_Isend(send[k].data(), static_cast<int>(bytes), MPI_BYTE, peers[k], kTagData, comm_, &req[k]);
   }
   for (std::size_t k = 0; k < nn; ++k) bytes_received_ += receive_probed(comm_, peers[k], kTagData, recv[k]);
   MPI_Waitall(static_cast<int>(nn), req.data(), MPI_STATUSES_IGNORE);
+}
+
+std::vector<std::vector<char>> Halo::exchange_with(const std::vector<int>& peers,
+                                                   const std::vector<std::vector<char>>& send) {
+  std::vector<std::vector<char>> recv;
+  exchange_records(peers, send, recv);
   return recv;
+}
+
+void Halo::exchange_doubles(const std::vector<int>& peers, const std::vector<std::vector<double>>& send,
+                            std::vector<std::vector<double>>& recv) {
+  exchange_records(peers, send, recv);
 }
 
 // The collective patterns below are not counted in bytes_received(): they serve the

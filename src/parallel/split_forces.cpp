@@ -96,15 +96,17 @@ std::vector<std::int32_t> interior_parts(const Incidence& inc, const std::vector
 }
 
 // The rows first + j of xyz (3 doubles each) for every j of `rows`, appended to buf.
-void append_rows(std::vector<char>& buf, const std::vector<double>& xyz, std::size_t first,
+void append_rows(std::vector<double>& buf, const std::vector<double>& xyz, std::size_t first,
                  const std::vector<std::int32_t>& rows) {
-  constexpr std::size_t kRow = 3 * sizeof(double);
   const std::size_t at = buf.size();
-  buf.resize(at + kRow * rows.size());
-  char* out = buf.data() + at;
+  buf.resize(at + 3 * rows.size());
+  double* out = buf.data() + at;
   for (std::int32_t j : rows) {
-    std::memcpy(out, &xyz[3 * (first + static_cast<std::size_t>(j))], kRow);
-    out += kRow;
+    const double* row = &xyz[3 * (first + static_cast<std::size_t>(j))];
+    out[0] = row[0];
+    out[1] = row[1];
+    out[2] = row[2];
+    out += 3;
   }
 }
 
@@ -307,13 +309,12 @@ std::size_t SplitForces::peer_index(int r, int object) const {
   return static_cast<std::size_t>(at - peers_.begin());
 }
 
-// One exchange of doubles with the peers; its wall and CPU time are the caller's wait.
-void SplitForces::timed_exchange(NeighbourExchange* exchange, const std::vector<std::vector<char>>& send,
-                                 std::vector<std::vector<double>>& recv) {
-  for (const std::vector<char>& b : send) doubles_sent_ += static_cast<std::int64_t>(b.size() / sizeof(double));
+// One exchange of doubles with the peers, send_ out and `recv` in (both kept from one
+// step to the next); its wall and CPU time are the caller's wait.
+void SplitForces::timed_exchange(NeighbourExchange* exchange, std::vector<std::vector<double>>& recv) {
+  for (const std::vector<double>& b : send_) doubles_sent_ += static_cast<std::int64_t>(b.size());
   const double wall0 = wall_seconds(), cpu0 = process_cpu_seconds();
-  recv.clear();
-  for (const std::vector<char>& r : exchange->exchange_with(peers_, send)) recv.push_back(read_records<double>(r));
+  exchange->exchange_doubles(peers_, send_, recv);
   exchange_wall_ += wall_seconds() - wall0;
   exchange_cpu_ += process_cpu_seconds() - cpu0;
 }
@@ -328,19 +329,21 @@ void SplitForces::evaluate(const World& w, bool damping, NeighbourExchange* exch
   evaluated_ = true;
   // 1. Each part's state from the owner: positions, and velocities where the stiffness
   // damping needs them, of its vertices in ascending order.
-  std::vector<std::vector<double>> in;
+  std::vector<std::vector<double>>& in = state_in_;  // one buffer per peer, resized in place by the exchange
+  if (!exchange) in.clear();
   if (exchange) {
-    std::vector<std::vector<char>> send(peers_.size());
+    send_.resize(peers_.size());
+    for (std::vector<double>& b : send_) b.clear();
     for (const std::unique_ptr<Merge>& gp : merges_) {
       const Merge& g = *gp;
       for (std::size_t q = 0; q < g.part_vertices.size(); ++q) {
         if (static_cast<int>(q) == w.rank || g.part_vertices[q].empty()) continue;
-        std::vector<char>& buf = send[peer_index(static_cast<int>(q), g.object)];
+        std::vector<double>& buf = send_[peer_index(static_cast<int>(q), g.object)];
         if (!g.holds[q]) append_rows(buf, w.x, g.first, g.part_vertices[q]);
         if (g.send_v && damping) append_rows(buf, w.v, g.first, g.part_vertices[q]);
       }
     }
-    timed_exchange(exchange, send, in);
+    timed_exchange(exchange, in);
   }
   std::vector<std::size_t> read(in.size(), 0);  // doubles read from each peer
   auto take = [&](std::size_t q, std::size_t n, int object, const char* what) {
@@ -354,8 +357,10 @@ void SplitForces::evaluate(const World& w, bool damping, NeighbourExchange* exch
   // 2. This rank's parts at that state.
   for (const std::unique_ptr<Part>& pp : parts_) {
     Part& p = *pp;
-    p.stream.clear();
-    if (!p.forces) continue;
+    if (!p.forces) {
+      p.stream.clear();
+      continue;
+    }
     const std::size_t nv = p.verts.size();
     if (p.owner == w.rank) {
       for (std::size_t i = 0; i < nv; ++i)
@@ -385,7 +390,7 @@ void SplitForces::evaluate(const World& w, bool damping, NeighbourExchange* exch
         std::copy(v, v + 3 * nv, p.mini.v.begin());
       }
     }
-    p.stream.resize(p.stream_doubles);
+    p.stream.resize(p.stream_doubles);  // the same length every step: kept, not cleared (every double is written)
     p.forces->stream_vertex_corners(p.mini, damping, p.fold, p.offset, p.stream.data());
   }
   for (std::size_t q = 0; q < in.size(); ++q)
@@ -393,13 +398,15 @@ void SplitForces::evaluate(const World& w, bool damping, NeighbourExchange* exch
       throw RuntimeFailure("SplitForces: rank " + std::to_string(peers_[q]) + " sent " + std::to_string(in[q].size()) +
                            " state components, " + std::to_string(read[q]) + " used");
   // 3. The parts of other ranks' objects to their owners, in ascending object order.
-  forces_in_.clear();
+  if (!exchange) forces_in_.clear();
   if (exchange) {
-    std::vector<std::vector<char>> send(peers_.size());
+    for (std::vector<double>& b : send_) b.clear();
     for (const std::unique_ptr<Part>& p : parts_)
-      if (p->owner != w.rank && !p->stream.empty())
-        append_records(send[peer_index(p->owner, p->object)], p->stream.data(), p->stream.size());
-    timed_exchange(exchange, send, forces_in_);
+      if (p->owner != w.rank && !p->stream.empty()) {
+        std::vector<double>& buf = send_[peer_index(p->owner, p->object)];
+        buf.insert(buf.end(), p->stream.begin(), p->stream.end());
+      }
+    timed_exchange(exchange, forces_in_);
   }
 }
 

@@ -1,4 +1,5 @@
-// The halo's update of changed rows only (Halo::keep_sent, Halo::update_changed): after a
+// Halo::exchange_doubles: every peer's doubles arrive, and buffers of the right size are
+// reused, not reallocated. Then the halo's update of changed rows only (Halo::keep_sent, Halo::update_changed): after a
 // full broadcast, updates that send each neighbour only the owned rows that differ
 // bitwise from what it holds must leave every ghost row exactly as a full broadcast
 // would, one after another, and must carry a bit per held row (whole doubles per object)
@@ -11,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <mpi.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -150,6 +152,52 @@ TEST(Halo, UpdateOfChangedRowsEqualsTheFullBroadcast) {
   check_changed_updates(true);
 
   // Every rank's verdict on rank 0, which alone prints.
+  int ok = ::testing::Test::HasFailure() ? 0 : 1;
+  MPI_Allreduce(MPI_IN_PLACE, &ok, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+  EXPECT_EQ(ok, 1) << "some rank failed";
+}
+
+// Each pair (from, to) sends `len` doubles of value from * 1e6 + to * 1e3 + i (+ a
+// round's offset); rank r's peers are all the other ranks. Rounds of the same lengths
+// must land in the same buffers (the pointers kept), and shorter and longer rounds must
+// be resized to the new length.
+TEST(Halo, ExchangeDoublesFillsTheCallersBuffersInPlace) {
+  const int n = comm_size(MPI_COMM_WORLD), rank = comm_rank(MPI_COMM_WORLD);
+  const Scene& scene = pile();
+  World w = build_world(scene, block_partition(scene, n), rank);
+  Halo halo(MPI_COMM_WORLD, w);
+  std::vector<int> peers;
+  for (int r = 0; r < n; ++r)
+    if (r != rank) peers.push_back(r);
+  auto length = [](int from, int to, std::size_t base) { return base + static_cast<std::size_t>(3 * from + 5 * to); };
+  auto value = [](int from, int to, std::size_t i, int round) {
+    return 1e6 * from + 1e3 * to + static_cast<double>(i) + 0.5 * round;
+  };
+  std::vector<std::vector<double>> send(peers.size()), recv;
+  std::vector<const double*> where;
+  const std::size_t bases[] = {40, 40, 7, 300};
+  for (int round = 0; round < 4; ++round) {
+    const std::size_t base = bases[round];
+    for (std::size_t k = 0; k < peers.size(); ++k) {
+      send[k].clear();
+      for (std::size_t i = 0; i < length(rank, peers[k], base); ++i) send[k].push_back(value(rank, peers[k], i, round));
+    }
+    halo.exchange_doubles(peers, send, recv);
+    EXPECT_EQ(recv.size(), peers.size());
+    std::size_t wrong = 0;
+    for (std::size_t k = 0; k < std::min(peers.size(), recv.size()); ++k) {
+      EXPECT_EQ(recv[k].size(), length(peers[k], rank, base)) << "from rank " << peers[k] << ", round " << round;
+      for (std::size_t i = 0; i < recv[k].size(); ++i) wrong += recv[k][i] != value(peers[k], rank, i, round) ? 1 : 0;
+      if (round == 1) EXPECT_EQ(recv[k].data(), where[k]) << "a buffer of the right size was reallocated";
+    }
+    EXPECT_EQ(wrong, 0u) << "round " << round;
+    where.clear();
+    for (const std::vector<double>& b : recv) where.push_back(b.data());
+  }
+  // No peers: no messages, an empty list back.
+  halo.exchange_doubles({}, {}, recv);
+  EXPECT_TRUE(recv.empty());
+
   int ok = ::testing::Test::HasFailure() ? 0 : 1;
   MPI_Allreduce(MPI_IN_PLACE, &ok, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
   EXPECT_EQ(ok, 1) << "some rank failed";
