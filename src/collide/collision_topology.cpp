@@ -23,118 +23,168 @@ bool key_less(const FaceRecord& a, const FaceRecord& b) {
   return a.owner > b.owner;  // tets (>= 0) before triangles (< 0), then by index; a fixed order
 }
 
-// Tet faces with their neighbours: sort all tet faces and surface triangles by vertex
-// triple; a run of two tet faces is an interior face, a tet face with a triangle is a
-// boundary face; anything else (a face of three or more tets, a face without either) is
-// left open. Objects share no vertex, so no face matches across objects: each object is
-// matched on its own (its records in one buffer per thread, reused), in parallel, each
-// writing only its own tets' entries; open faces are counted per object and added in
-// slot order.
+// Tet faces with their neighbours. Objects share no vertex, so no face matches across
+// objects: each object is matched on its own, in parallel, writing only its own tets'
+// entries. Within an object its tet faces and surface triangles are grouped by their
+// smallest vertex (a bucket per vertex of the object's range; a face's key is its sorted
+// vertex triple) and each bucket, about four faces, sorted by key: no sort of a whole
+// object's faces (the rebuild of every ghost set pays this). A run of two tet faces is
+// an interior face, a tet face with a triangle is a boundary face (with the run's first
+// triangle in key_less order); anything else (a face of three or more tets, a face
+// without either) is left open. Then per tet, bit j of the mask for each face with no
+// neighbour tet; and the faces left open counted.
 void build_faces(const World& w, CollisionTopology& t) {
   const std::size_t m = w.tets.size() / 4;
   t.face_neighbour.assign(4 * m, kOpenFace);
   t.boundary_mask.assign(m, 0);
-  std::vector<std::int64_t> open(t.objects.size(), 0);
+  auto tet_face = [&](index_t e, int j) {
+    const index_t* v = &w.tets[4 * static_cast<std::size_t>(e)];
+    index_t c[3], k = 0;
+    for (int q = 0; q < 4; ++q)
+      if (q != j) c[k++] = v[q];
+    return face_key(c[0], c[1], c[2]);
+  };
+  auto triangle_face = [&](index_t r) {
+    const index_t* v = &w.triangles[3 * static_cast<std::size_t>(r)];
+    return face_key(v[0], v[1], v[2]);
+  };
   // Every buffer is sized for the largest object before the parallel loop, which then
   // allocates nothing: an exhausted memory is a std::bad_alloc here, reported as such, not
   // an exception escaping an OpenMP region (std::terminate).
-  std::size_t largest = 0;
-  for (const ObjectInfo& o : t.objects) largest = std::max(largest, 4 * o.tets.size() + o.triangles.size());
-  std::vector<std::vector<FaceRecord>> buffers;
-  reset_buffers(buffers);
-  for (auto& b : buffers) b.reserve(largest);
+  std::size_t most_faces = 0, widest = 0;
+  for (const ObjectInfo& o : t.objects) {
+    most_faces = std::max(most_faces, 4 * o.tets.size() + o.triangles.size());
+    if (!o.vertices.empty())
+      widest = std::max(widest, static_cast<std::size_t>(o.vertices.back() - o.vertices.front()) + 1);
+  }
+  std::vector<std::vector<FaceRecord>> face_buffers;
+  std::vector<std::vector<std::size_t>> begin_buffers;
+  reset_buffers(face_buffers);
+  reset_buffers(begin_buffers);
+  for (auto& b : face_buffers) b.resize(most_faces);
+  for (auto& b : begin_buffers) b.resize(widest + 1);
   parallel_for_dynamic(t.objects.size(), [&](std::size_t k, int thread) {
     const ObjectInfo& o = t.objects[k];
-    std::vector<FaceRecord>& faces = buffers[static_cast<std::size_t>(thread)];
-    faces.clear();
-    for (index_t e : o.tets) {
-      const index_t* v = &w.tets[4 * static_cast<std::size_t>(e)];
+    if (o.vertices.empty()) return;
+    std::vector<FaceRecord>& faces = face_buffers[static_cast<std::size_t>(thread)];
+    std::vector<std::size_t>& begin = begin_buffers[static_cast<std::size_t>(thread)];
+    const index_t v0 = o.vertices.front();
+    const auto nv = static_cast<std::size_t>(o.vertices.back() - v0) + 1;  // the object's range of vertices
+    auto bucket = [&](const FaceKey& key) { return static_cast<std::size_t>(key[0] - v0); };
+    std::fill(begin.begin(), begin.begin() + static_cast<std::ptrdiff_t>(nv + 1), std::size_t{0});
+    for (index_t e : o.tets)
+      for (int j = 0; j < 4; ++j) ++begin[bucket(tet_face(e, j)) + 1];
+    for (index_t r : o.triangles) ++begin[bucket(triangle_face(r)) + 1];
+    for (std::size_t v = 0; v < nv; ++v) begin[v + 1] += begin[v];
+    for (index_t e : o.tets)
       for (int j = 0; j < 4; ++j) {
-        index_t c[3], n = 0;
-        for (int q = 0; q < 4; ++q)
-          if (q != j) c[n++] = v[q];
-        faces.push_back({face_key(c[0], c[1], c[2]), e, j});
+        const FaceKey key = tet_face(e, j);
+        faces[begin[bucket(key)]++] = {key, e, j};
       }
-    }
     for (index_t r : o.triangles) {
-      const index_t* v = &w.triangles[3 * static_cast<std::size_t>(r)];
-      faces.push_back({face_key(v[0], v[1], v[2]), -r - 1, -1});
+      const FaceKey key = triangle_face(r);
+      faces[begin[bucket(key)]++] = {key, -r - 1, -1};
     }
-    std::sort(faces.begin(), faces.end(), key_less);
-    for (std::size_t a = 0; a < faces.size();) {
-      std::size_t b = a;
-      while (b < faces.size() && same_face(faces[b].key, faces[a].key)) ++b;
-      int ntets = 0;
-      index_t triangle = 0;
-      bool has_triangle = false;
-      for (std::size_t q = a; q < b; ++q) {
-        if (faces[q].slot >= 0)
-          ++ntets;
-        else if (!has_triangle) {
-          has_triangle = true;
-          triangle = faces[q].owner;
-        }
-      }
-      if (ntets == 2 && !has_triangle) {
-        const FaceRecord &f = faces[a], &g = faces[a + 1];
-        t.face_neighbour[4 * static_cast<std::size_t>(f.owner) + f.slot] = g.owner;
-        t.face_neighbour[4 * static_cast<std::size_t>(g.owner) + g.slot] = f.owner;
-      } else {
+    // begin[v] is now the end of bucket v (the start of bucket v + 1).
+    for (std::size_t v = 0, lo = 0; v < nv; lo = begin[v++]) {
+      const std::size_t hi = begin[v];
+      if (hi - lo > 1) std::sort(faces.begin() + static_cast<std::ptrdiff_t>(lo), faces.begin() + static_cast<std::ptrdiff_t>(hi), key_less);
+      for (std::size_t a = lo; a < hi;) {
+        std::size_t b = a;
+        while (b < hi && same_face(faces[b].key, faces[a].key)) ++b;
+        int ntets = 0;
+        index_t triangle = 0;
+        bool has_triangle = false;
         for (std::size_t q = a; q < b; ++q) {
-          if (faces[q].slot < 0) continue;
-          const std::size_t e = static_cast<std::size_t>(faces[q].owner);
-          t.boundary_mask[e] |= static_cast<std::uint8_t>(1u << faces[q].slot);
-          if (ntets == 1 && has_triangle)
-            t.face_neighbour[4 * e + faces[q].slot] = triangle;
-          else
-            ++open[k];
+          if (faces[q].slot >= 0)
+            ++ntets;
+          else if (!has_triangle) {
+            has_triangle = true;
+            triangle = faces[q].owner;
+          }
         }
+        if (ntets == 2 && !has_triangle) {
+          const FaceRecord &f = faces[a], &g = faces[a + 1];
+          t.face_neighbour[4 * static_cast<std::size_t>(f.owner) + f.slot] = g.owner;
+          t.face_neighbour[4 * static_cast<std::size_t>(g.owner) + g.slot] = f.owner;
+        } else if (ntets == 1 && has_triangle) {
+          for (std::size_t q = a; q < b; ++q)
+            if (faces[q].slot >= 0) t.face_neighbour[4 * static_cast<std::size_t>(faces[q].owner) + faces[q].slot] = triangle;
+        }
+        a = b;
       }
-      a = b;
     }
   });
-  for (std::int64_t c : open) t.open_faces += c;
+  // A face was given a tet only as an interior face: every other face is a boundary face.
+  parallel_for(m, [&](std::size_t e, int) {
+    for (int j = 0; j < 4; ++j)
+      if (t.face_neighbour[4 * e + static_cast<std::size_t>(j)] < 0) t.boundary_mask[e] |= static_cast<std::uint8_t>(1u << j);
+  });
+  t.open_faces = std::count(t.face_neighbour.begin(), t.face_neighbour.end(), kOpenFace);
 }
 
-// Distinct mesh edges as a sorted adjacency (CSR) and their mean length.
+// Distinct mesh edges as a sorted adjacency (CSR) and their mean length. Each vertex's
+// row is built from its tets directly: the other end of every tet edge at it (an edge
+// once per tet that has it), then sorted and made unique, rows in parallel (each writes
+// only its own). No sort of the whole world's edges (the rebuild of every ghost set pays
+// this). The mean length adds the edges (a, b), a < b, in ascending (a, b) order, row by
+// row: the order, and so the bits, of a sorted list of all pairs.
 void build_edges(const World& w, CollisionTopology& t) {
   const std::size_t n = w.n_local(), m = w.tets.size() / 4;
-  std::vector<std::uint64_t> pairs;
-  pairs.reserve(6 * m);
+  std::vector<std::size_t> begin(n + 1, 0);
   for (std::size_t e = 0; e < m; ++e)
     for (const auto& ed : kTetEdges) {
-      auto a = static_cast<std::uint64_t>(w.tets[4 * e + ed[0]]), b = static_cast<std::uint64_t>(w.tets[4 * e + ed[1]]);
-      if (a > b) std::swap(a, b);
-      if (a != b) pairs.push_back(a << 32 | b);
+      const auto a = static_cast<std::size_t>(w.tets[4 * e + ed[0]]), b = static_cast<std::size_t>(w.tets[4 * e + ed[1]]);
+      if (a == b) continue;
+      ++begin[a + 1];
+      ++begin[b + 1];
     }
-  std::sort(pairs.begin(), pairs.end());
-  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  for (std::size_t v = 0; v < n; ++v) begin[v + 1] += begin[v];
+  std::vector<index_t> to(begin[n]);
+  {
+    std::vector<std::size_t> fill(begin.begin(), begin.end() - 1);
+    for (std::size_t e = 0; e < m; ++e)
+      for (const auto& ed : kTetEdges) {
+        const index_t a = w.tets[4 * e + ed[0]], b = w.tets[4 * e + ed[1]];
+        if (a == b) continue;
+        to[fill[static_cast<std::size_t>(a)]++] = b;
+        to[fill[static_cast<std::size_t>(b)]++] = a;
+      }
+  }
+  std::vector<std::size_t> distinct(n, 0);
+  parallel_for(n, [&](std::size_t v, int) {
+    const auto first = to.begin() + static_cast<std::ptrdiff_t>(begin[v]);
+    const auto last = to.begin() + static_cast<std::ptrdiff_t>(begin[v + 1]);
+    std::sort(first, last);
+    distinct[v] = static_cast<std::size_t>(std::unique(first, last) - first);
+  });
+  // Rows moved down in place to their distinct entries (a row's new start is never after
+  // its old one).
   t.edge_begin.assign(n + 1, 0);
+  for (std::size_t v = 0; v < n; ++v) {
+    t.edge_begin[v + 1] = t.edge_begin[v] + distinct[v];
+    std::copy(to.begin() + static_cast<std::ptrdiff_t>(begin[v]),
+              to.begin() + static_cast<std::ptrdiff_t>(begin[v] + distinct[v]),
+              to.begin() + static_cast<std::ptrdiff_t>(t.edge_begin[v]));
+  }
+  to.resize(t.edge_begin[n]);
+  to.shrink_to_fit();
+  t.edge_to = std::move(to);
   double length = 0;
-  for (std::uint64_t p : pairs) {
-    const auto a = static_cast<index_t>(p >> 32), b = static_cast<index_t>(p & 0xffffffffu);
-    ++t.edge_begin[static_cast<std::size_t>(a) + 1];
-    ++t.edge_begin[static_cast<std::size_t>(b) + 1];
-    double l2 = 0;
-    for (int d = 0; d < 3; ++d) {
-      const double dx = w.x[3 * static_cast<std::size_t>(a) + d] - w.x[3 * static_cast<std::size_t>(b) + d];
-      l2 += dx * dx;
+  std::size_t pairs = 0;
+  for (std::size_t a = 0; a < n; ++a)
+    for (std::size_t q = t.edge_begin[a]; q < t.edge_begin[a + 1]; ++q) {
+      const auto b = static_cast<std::size_t>(t.edge_to[q]);
+      if (b < a) continue;
+      double l2 = 0;
+      for (int d = 0; d < 3; ++d) {
+        const double dx = w.x[3 * a + d] - w.x[3 * b + d];
+        l2 += dx * dx;
+      }
+      length += std::sqrt(l2);
+      ++pairs;
     }
-    length += std::sqrt(l2);
-  }
-  t.mean_edge_length = pairs.empty() ? 0 : length / static_cast<double>(pairs.size());
-  for (std::size_t v = 0; v < n; ++v) t.edge_begin[v + 1] += t.edge_begin[v];
-  t.edge_to.resize(t.edge_begin[n]);
-  std::vector<std::size_t> fill(t.edge_begin.begin(), t.edge_begin.end() - 1);
-  // Row v receives its neighbours from pairs (v, b) and (a, v), interleaved: sort each row.
-  for (std::uint64_t p : pairs) {
-    const auto a = static_cast<index_t>(p >> 32), b = static_cast<index_t>(p & 0xffffffffu);
-    t.edge_to[fill[static_cast<std::size_t>(a)]++] = b;
-    t.edge_to[fill[static_cast<std::size_t>(b)]++] = a;
-  }
-  for (std::size_t v = 0; v < n; ++v)
-    std::sort(t.edge_to.begin() + static_cast<std::ptrdiff_t>(t.edge_begin[v]),
-              t.edge_to.begin() + static_cast<std::ptrdiff_t>(t.edge_begin[v + 1]));
+  t.mean_edge_length = pairs == 0 ? 0 : length / static_cast<double>(pairs);
 }
 
 }  // namespace

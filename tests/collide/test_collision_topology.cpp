@@ -1,5 +1,6 @@
-// The tet-face adjacency of the collision topology (build_collision_topology) against a
-// search over every face of the whole world at once.
+// The tet-face adjacency and the mesh edges of the collision topology
+// (build_collision_topology) against a search over every face and edge of the whole world
+// at once.
 #include <gtest/gtest.h>
 
 #include <omp.h>
@@ -7,7 +8,9 @@
 #include <algorithm>
 #include <array>
 #include <map>
+#include <cmath>
 #include <random>
+#include <set>
 #include <vector>
 
 #include "collide/collision_topology.hpp"
@@ -74,14 +77,56 @@ Expected brute_force(const World& w) {
   return x;
 }
 
+// Every distinct tet edge (a, b), a < b, in one ordered set; each vertex's neighbours
+// ascending; the mean length added in ascending (a, b) order.
+struct ExpectedEdges {
+  std::vector<std::size_t> begin;
+  std::vector<index_t> to;
+  double mean = 0;
+};
+ExpectedEdges brute_force_edges(const World& w) {
+  std::set<std::pair<index_t, index_t>> pairs;
+  for (std::size_t e = 0; e < w.tets.size() / 4; ++e)
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b) {
+        const index_t u = w.tets[4 * e + a], v = w.tets[4 * e + b];
+        if (u != v) pairs.insert({std::min(u, v), std::max(u, v)});
+      }
+  std::vector<std::vector<index_t>> rows(w.n_local());
+  double length = 0;
+  for (const auto& [a, b] : pairs) {
+    rows[static_cast<std::size_t>(a)].push_back(b);
+    rows[static_cast<std::size_t>(b)].push_back(a);
+    double l2 = 0;
+    for (std::size_t d = 0; d < 3; ++d) {
+      const double dx = w.x[3 * static_cast<std::size_t>(a) + d] - w.x[3 * static_cast<std::size_t>(b) + d];
+      l2 += dx * dx;
+    }
+    length += std::sqrt(l2);
+  }
+  ExpectedEdges x;
+  x.begin.push_back(0);
+  for (std::vector<index_t>& r : rows) {
+    std::sort(r.begin(), r.end());
+    x.to.insert(x.to.end(), r.begin(), r.end());
+    x.begin.push_back(x.to.size());
+  }
+  x.mean = pairs.empty() ? 0 : length / static_cast<double>(pairs.size());
+  return x;
+}
+
 void expect_matches(const World& w, const char* what) {
   const Expected x = brute_force(w);
+  const ExpectedEdges xe = brute_force_edges(w);
   for (int threads : {1, 2, 3}) {
     omp_set_num_threads(threads);
     const CollisionTopology t = build_collision_topology(w);
     EXPECT_EQ(t.face_neighbour, x.neighbour) << what << ", " << threads << " threads";
     EXPECT_EQ(t.boundary_mask, x.mask) << what << ", " << threads << " threads";
     EXPECT_EQ(t.open_faces, x.open) << what << ", " << threads << " threads";
+    EXPECT_EQ(t.edge_begin, xe.begin) << what << ", " << threads << " threads";
+    EXPECT_EQ(t.edge_to, xe.to) << what << ", " << threads << " threads";
+    EXPECT_EQ(t.mean_edge_length, xe.mean) << what << ", " << threads << " threads (to the bit)";
   }
   omp_set_num_threads(1);
 }
@@ -91,7 +136,8 @@ void expect_matches(const World& w, const char* what) {
 // Twelve random tori, spheres and boxes on one rank; then rank 0 of 3 with the others'
 // objects as ghosts (local indices no longer in object order); then with three surface
 // triangles removed (three boundary faces left open) and one tet duplicated (each of its
-// faces then open in every tet that has it). Every entry equal on 1, 2 and 3 threads.
+// faces then open in every tet that has it). Every entry equal on 1, 2 and 3 threads, and
+// the mean edge length to the bit.
 TEST(CollisionTopology, FaceNeighboursMatchASearchOverTheWholeWorld) {
   std::mt19937_64 g(77);
   const std::string yaml = test::random_objects_yaml(g, 12);
