@@ -6,6 +6,7 @@
 
 #include "parallel.hpp"
 #include "thickness.hpp"
+#include "softcontact/error.hpp"
 #include "softcontact/surface.hpp"
 
 namespace softcontact::collide {
@@ -70,7 +71,10 @@ void build_faces(const World& w, CollisionTopology& t) {
     std::vector<std::size_t>& begin = begin_buffers[static_cast<std::size_t>(thread)];
     const index_t v0 = o.vertices.front();
     const auto nv = static_cast<std::size_t>(o.vertices.back() - v0) + 1;  // the object's range of vertices
-    auto bucket = [&](const FaceKey& key) { return static_cast<std::size_t>(key[0] - v0); };
+    auto bucket = [&](const FaceKey& key) {
+      SC_ASSERT(key[0] >= v0 && static_cast<std::size_t>(key[0] - v0) < nv);  // objects share no vertex
+      return static_cast<std::size_t>(key[0] - v0);
+    };
     std::fill(begin.begin(), begin.begin() + static_cast<std::ptrdiff_t>(nv + 1), std::size_t{0});
     for (index_t e : o.tets)
       for (int j = 0; j < 4; ++j) ++begin[bucket(tet_face(e, j)) + 1];
