@@ -35,6 +35,12 @@ double kth_smallest(MPI_Comm comm, const std::vector<double>& values, std::int64
 /// first by MPI_Allgather). Collective. The total must fit an int.
 std::vector<double> allgather_doubles(MPI_Comm comm, const std::vector<double>& mine);
 
+/// Rank r's `counts[r]` consecutive values of root's `all` (MPI_Scatterv; the pieces in
+/// rank order), returned on every rank. `counts` is the same on every rank; `all` matters
+/// on root only, where it must hold their sum. Collective.
+std::vector<double> scatter_doubles(MPI_Comm comm, int root, const std::vector<double>& all,
+                                    const std::vector<int>& counts);
+
 /// The most bytes one MPI call of the exchanges below moves per rank: MPI's counts and
 /// displacements are ints.
 inline constexpr std::size_t kMaxCallBytes = static_cast<std::size_t>(std::numeric_limits<int>::max());

@@ -356,6 +356,18 @@ struct SceneLimits {
   /// itself at its entry, to report the error as one rank would). Unset: every rank reads
   /// them.
   std::function<void(std::vector<char>&, int)> broadcast;
+  /// How ranks share the element frequencies of a large single-copy mesh, which only the
+  /// rank that made it holds (a soft floor of half the scene's tets): its tets' corners go
+  /// out in rounds of at most `spread_round_tets` tets, each round cut into `parts`
+  /// consecutive pieces, and `scatter(all, counts, root)` returns this part's `counts[part]`
+  /// values of part root's `all` (an MPI_Scatterv). Each part takes the highest frequency
+  /// of its pieces and `sum` brings every part's to every rank: a maximum, so the value is
+  /// bitwise the one rank's. For movable single-copy meshes of at least `spread_tets` tets,
+  /// with the element bound (the mesh bound's eigenproblem needs the whole mesh and stays
+  /// with its maker). Unset: the maker computes them alone.
+  std::function<std::vector<double>(const std::vector<double>&, const std::vector<int>&, int)> scatter;
+  std::int64_t spread_tets = std::int64_t{1} << 15;
+  std::int64_t spread_round_tets = std::int64_t{1} << 18;
 };
 
 /// Reads, validates and instantiates a scene. Mesh paths are relative to the scene file.

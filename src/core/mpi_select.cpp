@@ -1,6 +1,6 @@
 // Exact selection over ranks (mpi_util.hpp): radix selection on the bit patterns of
 // non-negative doubles, which order like the numbers themselves. And an all-gather of
-// doubles of any count per rank.
+// doubles of any count per rank, and its converse, a scatter.
 #include <array>
 #include <cstring>
 #include <limits>
@@ -68,6 +68,25 @@ std::vector<double> allgather_doubles(MPI_Comm comm, const std::vector<double>& 
   MPI_Allgatherv(mine.data(), static_cast<int>(count), MPI_DOUBLE, all.data(), sizes.data(), displs.data(), MPI_DOUBLE,
                  comm);
   return all;
+}
+
+std::vector<double> scatter_doubles(MPI_Comm comm, int root, const std::vector<double>& all,
+                                    const std::vector<int>& counts) {
+  const int n = comm_size(comm), me = comm_rank(comm);
+  if (counts.size() != static_cast<std::size_t>(n)) throw std::invalid_argument("scatter_doubles: one count per rank");
+  std::vector<int> displs(counts.size());
+  std::int64_t total = 0;
+  for (std::size_t r = 0; r < counts.size(); ++r) {
+    if (total > std::numeric_limits<int>::max()) throw std::length_error("scatter_doubles: more than 2^31 - 1 values");
+    displs[r] = static_cast<int>(total);
+    total += counts[r];
+  }
+  if (me == root && static_cast<std::int64_t>(all.size()) != total)
+    throw std::invalid_argument("scatter_doubles: the root's values are not the counts' sum");
+  std::vector<double> piece(static_cast<std::size_t>(counts[static_cast<std::size_t>(me)]));
+  MPI_Scatterv(all.data(), counts.data(), displs.data(), MPI_DOUBLE, piece.data(), static_cast<int>(piece.size()),
+               MPI_DOUBLE, root, comm);
+  return piece;
 }
 
 }  // namespace softcontact

@@ -533,6 +533,25 @@ std::function<TetMesh()> parse_primitive(const Reader& r, const YAML::Node& n, c
 
 double max_tet_frequency(const TetMesh& m, const Material& mat);  // below
 
+/// Highest tet_max_frequency of tets 0 .. nt - 1, whose corners `corners(t, X)` writes;
+/// NaN when any tet's is NaN, so that the caller can reject it (std::max alone would drop
+/// a NaN). A maximum is exact in any order: the result does not depend on the threads, nor
+/// on how the tets are cut into pieces.
+template <class Corners>
+double max_frequency(std::ptrdiff_t nt, const Material& mat, const Corners& corners) {
+  double wmax = 0;
+  bool nan = false;
+#pragma omp parallel for schedule(static) reduction(max : wmax) reduction(|| : nan) if (nt > 1024)
+  for (std::ptrdiff_t t = 0; t < nt; ++t) {
+    double X[12];
+    corners(t, X);
+    const double w = tet_max_frequency(X, mat);
+    nan = nan || std::isnan(w);
+    wmax = std::max(wmax, w);
+  }
+  return nan ? std::numeric_limits<double>::quiet_NaN() : wmax;
+}
+
 /// Words per entry of what parse_objects' ranks share of a single-copy entry's mesh: made
 /// (0: failed, 1: made), warnings, then vertices, tets, triangles, the box (6 doubles),
 /// digest, element frequency, mesh bound and its estimate, each a 64-bit word sent as two
@@ -667,6 +686,63 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
       r.fail(n, e.detail());
     }
   };
+  // Whether the element frequency of a made mesh is computed by all ranks together
+  // (SceneLimits::scatter): decided alike on every rank, from its tet count.
+  auto spread = [&](const MadeOnce& d, std::uint64_t tets) {
+    return shared && limits.scatter && !d.spec.kinematic && scene.sim.dt_bound == DtBound::element &&
+           static_cast<std::int64_t>(tets) >= limits.spread_tets;
+  };
+  // The spread meshes' frequencies, in the order of `made`: their makers send out their
+  // tets' corners round by round, each rank takes the highest frequency of its pieces, and
+  // one sum gives every rank every part's highest (each part writes its own slot; the
+  // others add zeros), whose maximum is exactly the one rank's value.
+  auto spread_frequencies = [&] {
+    std::vector<std::size_t> wide;  // into `made`
+    for (std::size_t i = 0; i < made.size(); ++i)
+      if (spread(made[i], scene.shape(made[i].object).tets)) wide.push_back(i);
+    if (wide.empty()) return;
+    const auto parts = static_cast<std::size_t>(limits.parts), part = static_cast<std::size_t>(limits.part);
+    const std::int64_t round = std::max<std::int64_t>(limits.spread_round_tets, 1);
+    std::vector<double> highest(wide.size() * parts, 0.0);
+    for (std::size_t j = 0; j < wide.size(); ++j) {
+      const MadeOnce& d = made[wide[j]];
+      const Material& mat = scene.materials[static_cast<std::size_t>(d.spec.material)];
+      const auto nt = static_cast<std::int64_t>(scene.shape(d.object).tets);
+      const int root = static_cast<int>(d.object % parts);
+      double w = 0;
+      for (std::int64_t s = 0; s < nt; s += round) {
+        const std::int64_t n = std::min(round, nt - s);
+        const auto first = [&](std::size_t k) { return s + n * static_cast<std::int64_t>(k) / static_cast<std::int64_t>(parts); };
+        std::vector<int> counts(parts);
+        for (std::size_t k = 0; k < parts; ++k) counts[k] = static_cast<int>(12 * (first(k + 1) - first(k)));
+        std::vector<double> all;
+        if (d.mine) {
+          const TetMesh& m = scene.objects[d.object].mesh;
+          all.resize(static_cast<std::size_t>(12 * n));
+          for (std::int64_t t = 0; t < n; ++t)
+            for (int c = 0; c < 4; ++c)
+              for (int e = 0; e < 3; ++e)
+                all[static_cast<std::size_t>(12 * t + 3 * c + e)] =
+                    m.points[3 * static_cast<std::size_t>(m.tets[static_cast<std::size_t>(4 * (s + t) + c)]) + static_cast<std::size_t>(e)];
+        }
+        const std::vector<double> piece = limits.scatter(all, counts, root);
+        const double wp = max_frequency(static_cast<std::ptrdiff_t>(piece.size() / 12), mat, [&piece](std::ptrdiff_t t, double X[12]) {
+          std::copy_n(&piece[12 * static_cast<std::size_t>(t)], 12, X);
+        });
+        w = std::isnan(w) || std::isnan(wp) ? std::numeric_limits<double>::quiet_NaN() : std::max(w, wp);
+      }
+      highest[j * parts + part] = w;
+    }
+    limits.sum(highest);
+    for (std::size_t j = 0; j < wide.size(); ++j) {
+      double w = 0;
+      for (std::size_t k = 0; k < parts; ++k) {
+        const double wk = highest[j * parts + k];
+        w = std::isnan(w) || std::isnan(wk) ? std::numeric_limits<double>::quiet_NaN() : std::max(w, wk);
+      }
+      parsed.frequency[made[wide[j]].object] = w;
+    }
+  };
   // The ranks share what they learnt of the entries they made. With `errors_only`, only
   // whether each was made (on the way out with an error of the scene file: the first
   // entry in scene order that could not be made is reported instead, as one rank would).
@@ -692,7 +768,7 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
         put_real(v, at + 14 + 2 * c, sh.box.hi[c]);
       }
       put_word(v, at + 20, o.placement.base->digest());
-      if (o.kinematic()) continue;
+      if (o.kinematic() || spread(d, sh.tets)) continue;  // a spread mesh's frequency: below
       const Material& mat = scene.materials[static_cast<std::size_t>(o.material)];
       const double w = max_tet_frequency(o.mesh, mat);
       put_real(v, at + 22, w);
@@ -739,7 +815,7 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
         }
       }
       if (shared) scene.objects[d.object].maker = static_cast<int>(d.object % static_cast<std::size_t>(limits.parts));
-      if (d.spec.kinematic) continue;
+      if (d.spec.kinematic || spread(d, sh.tets)) continue;
       const double w = get_real(v, at + 22);
       parsed.frequency[d.object] = w;
       if (scene.sim.dt_bound == DtBound::mesh && w > 0 && w < std::numeric_limits<double>::infinity()) {
@@ -750,6 +826,7 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
         parsed.mesh_bound[d.spec.index] = f;
       }
     }
+    spread_frequencies();
   };
 
   int entry = 0;
@@ -956,20 +1033,10 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
 /// Highest tet frequency of one object (tet_max_frequency); NaN when any tet's is NaN, so
 /// that the caller can reject it (std::max alone would drop a NaN).
 double max_tet_frequency(const TetMesh& m, const Material& mat) {
-  const std::ptrdiff_t nt = static_cast<std::ptrdiff_t>(m.num_tets());
-  double wmax = 0;
-  bool nan = false;
-  // A maximum is exact in any order: the result does not depend on the threads.
-#pragma omp parallel for schedule(static) reduction(max : wmax) reduction(|| : nan) if (nt > 1024)
-  for (std::ptrdiff_t t = 0; t < nt; ++t) {
-    double X[12];
+  return max_frequency(static_cast<std::ptrdiff_t>(m.num_tets()), mat, [&m](std::ptrdiff_t t, double X[12]) {
     for (int k = 0; k < 4; ++k)
       for (int d = 0; d < 3; ++d) X[3 * k + d] = m.points[3 * static_cast<std::size_t>(m.tets[4 * t + k]) + d];
-    const double w = tet_max_frequency(X, mat);
-    nan = nan || std::isnan(w);
-    wmax = std::max(wmax, w);
-  }
-  return nan ? std::numeric_limits<double>::quiet_NaN() : wmax;
+  });
 }
 
 /// The highest tet frequency of every movable object (0 for kinematic ones), computed once

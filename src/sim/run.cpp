@@ -238,6 +238,9 @@ SceneLimits copies_made_on_demand(MPI_Comm comm) {
   l.sum = sum_over(comm);
   l.gather = [comm](const std::vector<double>& mine) { return allgather_doubles(comm, mine); };
   l.broadcast = [comm](std::vector<char>& bytes, int root) { broadcast_bytes(comm, root, bytes); };
+  l.scatter = [comm](const std::vector<double>& all, const std::vector<int>& counts, int root) {
+    return scatter_doubles(comm, root, all, counts);
+  };
   return l;
 }
 

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 #include <mpi.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -17,6 +19,7 @@
 #include <vector>
 
 #include "softcontact/error.hpp"
+#include "softcontact/forces.hpp"
 #include "softcontact/mesh_io.hpp"
 #include "softcontact/mpi_util.hpp"
 #include "softcontact/primitives.hpp"
@@ -357,5 +360,104 @@ TEST(SharedFileRead, AFileItsRankCannotReadStopsEveryRankWithOneRanksMessage) {
     ASSERT_FALSE(alone.empty());
     EXPECT_NE(alone.find(expected), std::string::npos) << alone;
     EXPECT_EQ(together, alone);
+  }
+}
+
+// A large single-copy mesh's element frequency computed by all ranks together
+// (SceneLimits::scatter): the maker sends its tets' corners out in rounds, each rank takes
+// the highest frequency of its pieces. The mesh has one tet stiffer than all others (an
+// inner vertex moved), and its file lists the tets rotated so that this tet stands first,
+// last, at a round's end or start, or in the middle: wherever it lands, every rank's step
+// is bitwise the one of a rank that read the file alone, and its frequency is the
+// highest of a direct loop over the tets.
+TEST(SingleCopyRead, ALargeMeshsFrequencyIsSharedOverTheRanksAndIsTheMakersToTheBit) {
+  const int rank = comm_rank(MPI_COMM_WORLD), n = comm_size(MPI_COMM_WORLD);
+  TetMesh base = make_box(0.3, 0.3, 0.3, 4, 4, 4);  // 384 tets, spacing 0.075
+  const Material probe = [] {
+    const Scene s = load_scene_from_string(std::string(kHead) + "  - {name: x, material: rubber, primitive: {type: box, size: [1, 1, 1], cells: [1, 1, 1]}}\n",
+                                           "probe.yaml");
+    return s.materials[0];
+  }();
+  // The inner vertex nearest (0.15, 0.15, 0.15) pushed by a quarter of a cell along a
+  // generic direction: the tets around it differ, and one of them is the stiffest.
+  std::size_t centre = 0;
+  double best = 1e9;
+  for (std::size_t v = 0; v < base.num_vertices(); ++v) {
+    double d = 0;
+    for (int c = 0; c < 3; ++c) d += std::abs(base.points[3 * v + c] - 0.15);
+    if (d < best) best = d, centre = v;
+  }
+  const double push[3] = {0.019, 0.011, -0.007};
+  for (int c = 0; c < 3; ++c) base.points[3 * centre + c] += push[c];
+  const std::size_t nt = base.num_tets();
+  std::vector<double> w(nt);
+  for (std::size_t t = 0; t < nt; ++t) {
+    double X[12];
+    for (int k = 0; k < 4; ++k)
+      for (int c = 0; c < 3; ++c) X[3 * k + c] = base.points[3 * static_cast<std::size_t>(base.tets[4 * t + k]) + c];
+    w[t] = tet_max_frequency(X, probe);
+  }
+  const std::size_t stiffest = static_cast<std::size_t>(std::max_element(w.begin(), w.end()) - w.begin());
+  std::vector<double> sorted = w;
+  std::sort(sorted.rbegin(), sorted.rend());
+  ASSERT_GT(sorted[0], 1.01 * sorted[1]) << "one tet is the stiffest, or the test proves nothing";
+
+  const std::int64_t round = 50;  // 384 tets: 8 rounds, the last of 34
+  const std::filesystem::path dir = scene_dir() / "spread";
+  for (std::size_t at : {std::size_t{0}, nt - 1, std::size_t{49}, std::size_t{50}, std::size_t{99}, nt / 2 + 3, std::size_t{351}}) {
+    SCOPED_TRACE("the stiffest tet at " + std::to_string(at));
+    TetMesh m = base;
+    // tets rotated so that the stiffest stands at `at`
+    const std::size_t shift = (stiffest + nt - at) % nt;
+    for (std::size_t t = 0; t < nt; ++t)
+      for (int k = 0; k < 4; ++k) m.tets[4 * t + k] = base.tets[4 * ((t + shift) % nt) + k];
+    if (rank == 0) {
+      std::filesystem::create_directories(dir);
+      write_gmsh((dir / "big.msh").string(), m, GmshFormat::v41_binary);
+      // the big mesh is object 1: made by rank 1 % ranks; the small box (object 2, coarser:
+      // it does not set the step) stays below spread_tets
+      std::ofstream(dir / "scene.yaml") << std::string(kHead) +
+          "  - {name: floor, material: rubber, kinematic: true, primitive: {type: plate, size: [4, 2], thickness: 0.1, cells: [8, 4]}, transform: {translate: [0, 0, -0.05]}}\n"
+          "  - {name: big, material: rubber, mesh: big.msh, transform: {rotate: [0, 0, 30], translate: [0, 0, 0.2]}}\n"
+          "  - {name: small, material: rubber, primitive: {type: box, size: [0.1, 0.1, 0.1], cells: [1, 1, 1]}, transform: {translate: [1, 0, 0.2]}}\n";
+    }
+    MPI_Barrier(MPI_COMM_WORLD);
+    const std::string path = (dir / "scene.yaml").string();
+    const Scene one = load_scene(path);
+    SceneLimits l = copies_made_on_demand(MPI_COMM_WORLD);
+    l.spread_tets = 100;
+    l.spread_round_tets = round;
+    long calls = 0, received = 0;
+    l.scatter = [&, inner = l.scatter](const std::vector<double>& all, const std::vector<int>& counts, int root) {
+      ++calls;
+      EXPECT_EQ(root, 1 % n) << "the maker of object 1 sends";
+      if (rank == root) EXPECT_EQ(all.size(), 12u * static_cast<std::size_t>(std::min<std::int64_t>(round, static_cast<std::int64_t>(nt) - round * (calls - 1))));
+      std::vector<double> piece = inner(all, counts, root);
+      received += static_cast<long>(piece.size());
+      return piece;
+    };
+    const Scene shared = load_scene(path, l);
+    EXPECT_EQ(bits(shared.sim.dt), bits(one.sim.dt));
+    // The reference: a direct loop over the placed mesh's tets, on one rank.
+    const TetMesh& placed = one.objects[1].mesh;
+    ASSERT_EQ(placed.num_tets(), nt);
+    std::vector<double> wp(nt);
+    for (std::size_t t = 0; t < nt; ++t) {
+      double X[12];
+      for (int k = 0; k < 4; ++k)
+        for (int c = 0; c < 3; ++c) X[3 * k + c] = placed.points[3 * static_cast<std::size_t>(placed.tets[4 * t + k]) + c];
+      wp[t] = tet_max_frequency(X, probe);
+    }
+    ASSERT_EQ(static_cast<std::size_t>(std::max_element(wp.begin(), wp.end()) - wp.begin()), at) << "the stiffest tet where it was put";
+    const StableStep s = stable_step(one);
+    ASSERT_EQ(s.object, 1) << "the big mesh sets the step";
+    EXPECT_EQ(bits(s.omega_element), bits(wp[at]));
+    EXPECT_EQ(calls, n > 1 ? (static_cast<long>(nt) + round - 1) / round : 0) << "one scatter a round, on more than one rank";
+    long all_received = received;
+    MPI_Allreduce(MPI_IN_PLACE, &all_received, 1, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);
+    EXPECT_EQ(all_received, n > 1 ? 12 * static_cast<long>(nt) : 0) << "each tet's corners to one rank";
+    if (n > 1) EXPECT_GE(received, 12 * static_cast<long>(nt) / n - 12 * 8) << "an even share on rank " << rank;
+    EXPECT_EQ(shared.objects[1].mesh.points.empty(), rank != 1 % n) << "held by its maker only";
+    MPI_Barrier(MPI_COMM_WORLD);
   }
 }
