@@ -533,6 +533,11 @@ std::function<TetMesh()> parse_primitive(const Reader& r, const YAML::Node& n, c
 
 double max_tet_frequency(const TetMesh& m, const Material& mat);  // below
 
+/// The larger of two frequencies, NaN when either is (std::max alone would drop a NaN).
+double max_or_nan(double a, double b) {
+  return std::isnan(a) || std::isnan(b) ? std::numeric_limits<double>::quiet_NaN() : std::max(a, b);
+}
+
 /// Highest tet_max_frequency of tets 0 .. nt - 1, whose corners `corners(t, X)` writes;
 /// NaN when any tet's is NaN, so that the caller can reject it (std::max alone would drop
 /// a NaN). A maximum is exact in any order: the result does not depend on the threads, nor
@@ -729,17 +734,14 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
         const double wp = max_frequency(static_cast<std::ptrdiff_t>(piece.size() / 12), mat, [&piece](std::ptrdiff_t t, double X[12]) {
           std::copy_n(&piece[12 * static_cast<std::size_t>(t)], 12, X);
         });
-        w = std::isnan(w) || std::isnan(wp) ? std::numeric_limits<double>::quiet_NaN() : std::max(w, wp);
+        w = max_or_nan(w, wp);
       }
       highest[j * parts + part] = w;
     }
     limits.sum(highest);
     for (std::size_t j = 0; j < wide.size(); ++j) {
       double w = 0;
-      for (std::size_t k = 0; k < parts; ++k) {
-        const double wk = highest[j * parts + k];
-        w = std::isnan(w) || std::isnan(wk) ? std::numeric_limits<double>::quiet_NaN() : std::max(w, wk);
-      }
+      for (std::size_t k = 0; k < parts; ++k) w = max_or_nan(w, highest[j * parts + k]);
       parsed.frequency[made[wide[j]].object] = w;
     }
   };
@@ -1045,12 +1047,16 @@ double max_tet_frequency(const TetMesh& m, const Material& mat) {
 /// as the entry placed it (their placed meshes would give the same eigenvalues but for
 /// the rounding of the placement); any other object its own mesh's. The meshes are shared
 /// over the parts (the k-th distinct mesh on part k % parts; SceneLimits::sum adds the
-/// parts' vectors), each value computed exactly as on one part. The objects in `known`
-/// take their value from it (the single-copy entries, measured by the rank that made them:
-/// parse_objects).
+/// parts' vectors), each value computed exactly as on one part; a mesh of at least
+/// `spread_tets` tets (every rank holds it) is cut into `parts` consecutive ranges of tets
+/// instead, each part the maximum of its range in a slot of its own after the objects'
+/// values, so that one rank does not compute it alone (the maximum of the slots is the
+/// one part's value). The objects in `known` take their value from it (the single-copy
+/// entries, measured by the rank that made them: parse_objects).
 std::vector<double> object_frequencies(const Scene& scene, int part, int parts,
                                        const std::function<void(std::vector<double>&)>& sum,
-                                       const std::map<std::size_t, double>& known = {}) {
+                                       const std::map<std::size_t, double>& known = {},
+                                       std::int64_t spread_tets = std::numeric_limits<std::int64_t>::max()) {
   const std::size_t n = scene.objects.size();
   std::vector<double> frequency(n, 0.0);
   std::vector<std::size_t> from(n);  // the object whose value object i takes
@@ -1069,15 +1075,44 @@ std::vector<double> object_frequencies(const Scene& scene, int part, int parts,
     units.push_back(i);
   }
   const bool shared = parts > 1 && sum;
-  for (std::size_t k = 0; k < units.size(); ++k) {
-    if (shared && static_cast<int>(k % static_cast<std::size_t>(parts)) != part) continue;
-    const std::size_t i = units[k];
+  const auto P = static_cast<std::size_t>(parts);
+  std::vector<std::size_t> wide;  // units whose tets the parts share
+  std::size_t whole = 0;          // units computed whole so far: the k-th on part k % parts
+  for (std::size_t i : units) {
     const SceneObject& o = scene.objects[i];
     const Material& mat = scene.materials[o.material];
-    frequency[i] = o.placement.is_copy() ? max_tet_frequency(o.placement.base->get(), mat)
-                                            : max_tet_frequency(scene.view_mesh(i).get(), mat);
+    // f(the unit's mesh): an entry's mesh for copies, else the object's (a view, which may
+    // hold a mesh made again: kept alive while f runs)
+    const auto with_mesh = [&](const auto& f) {
+      if (o.placement.is_copy()) return f(o.placement.base->get());
+      const auto view = scene.view_mesh(i);
+      return f(view.get());
+    };
+    const auto nt = static_cast<std::int64_t>(o.placement.is_copy() ? o.placement.base->get().num_tets() : scene.shape(i).tets);
+    if (shared && nt >= spread_tets) {
+      // tets [nt part / parts, nt (part + 1) / parts), in slot `part` after the objects'
+      const std::ptrdiff_t lo = nt * part / parts, hi = nt * (part + 1) / parts;
+      std::vector<double> slots(P, 0.0);
+      slots[static_cast<std::size_t>(part)] = with_mesh([&](const TetMesh& m) {
+        return max_frequency(hi - lo, mat, [&m, lo](std::ptrdiff_t t, double X[12]) {
+          for (int k = 0; k < 4; ++k)
+            for (int d = 0; d < 3; ++d) X[3 * k + d] = m.points[3 * static_cast<std::size_t>(m.tets[4 * (lo + t) + k]) + d];
+        });
+      });
+      frequency.insert(frequency.end(), slots.begin(), slots.end());
+      wide.push_back(i);
+      continue;
+    }
+    if (!shared || static_cast<int>(whole++ % P) == part)
+      frequency[i] = with_mesh([&mat](const TetMesh& m) { return max_tet_frequency(m, mat); });
   }
   if (shared) sum(frequency);  // 0 + w is w, NaN stays NaN: each value as computed alone
+  for (std::size_t j = 0; j < wide.size(); ++j) {
+    double w = 0;
+    for (std::size_t k = 0; k < P; ++k) w = max_or_nan(w, frequency[n + j * P + k]);
+    frequency[wide[j]] = w;
+  }
+  frequency.resize(n);
   for (const auto& [i, w] : known) frequency[i] = w;
   for (std::size_t i = 0; i < n; ++i)
     if (!scene.objects[i].kinematic()) frequency[i] = frequency[from[i]];
@@ -1166,7 +1201,7 @@ Scene load_scene_from_string(const std::string& yaml, const std::string& path, c
   StableStep stable;
   std::map<int, MeshFrequency> mesh_cache(parsed.mesh_bound);
   const std::vector<double> frequency =
-      object_frequencies(scene, limits.part, limits.parts, limits.sum, parsed.frequency);
+      object_frequencies(scene, limits.part, limits.parts, limits.sum, parsed.frequency, limits.spread_tets);
   // Every object's shape, now that every mesh is in hand: the ranks share the boundaries
   // (the copies placed without their meshes have theirs already).
   if (!limits.hold_copy_meshes) scene.describe_objects(limits.part, limits.parts, limits.sum);

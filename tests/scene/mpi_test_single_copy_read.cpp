@@ -369,7 +369,8 @@ TEST(SharedFileRead, AFileItsRankCannotReadStopsEveryRankWithOneRanksMessage) {
 // inner vertex moved), and its file lists the tets rotated so that this tet stands first,
 // last, at a round's end or start, or in the middle: wherever it lands, every rank's step
 // is bitwise the one of a rank that read the file alone, and its frequency is the
-// highest of a direct loop over the tets.
+// highest of a direct loop over the tets. The same mesh as a grid entry's, which every
+// rank holds, has its tets cut into ranges over the ranks without any message.
 TEST(SingleCopyRead, ALargeMeshsFrequencyIsSharedOverTheRanksAndIsTheMakersToTheBit) {
   const int rank = comm_rank(MPI_COMM_WORLD), n = comm_size(MPI_COMM_WORLD);
   TetMesh base = make_box(0.3, 0.3, 0.3, 4, 4, 4);  // 384 tets, spacing 0.075
@@ -459,5 +460,43 @@ TEST(SingleCopyRead, ALargeMeshsFrequencyIsSharedOverTheRanksAndIsTheMakersToThe
     if (n > 1) EXPECT_GE(received, 12 * static_cast<long>(nt) / n - 12 * 8) << "an even share on rank " << rank;
     EXPECT_EQ(shared.objects[1].mesh.points.empty(), rank != 1 % n) << "held by its maker only";
     MPI_Barrier(MPI_COMM_WORLD);
+
+    // The same mesh as a grid entry's (its file read by one rank and broadcast, every rank
+    // holds it): the ranks cut its tets into consecutive ranges without sending them, each
+    // its range's maximum in a slot of its own after the objects' values.
+    if (rank == 0) {
+      write_gmsh((dir / "grid.msh").string(), m, GmshFormat::v41_binary);
+      std::ofstream(dir / "copies.yaml") << std::string(kHead) +
+          "  - {name: floor, material: rubber, kinematic: true, primitive: {type: plate, size: [4, 2], thickness: 0.1, cells: [8, 4]}, transform: {translate: [0, 0, -0.05]}}\n"
+          "  - {name: grid, material: rubber, mesh: grid.msh, instances: {grid: {count: [3, 1, 1], spacing: [0.5, 0, 0]}}, transform: {translate: [0, 0, 0.2]}}\n";
+    }
+    MPI_Barrier(MPI_COMM_WORLD);
+    const std::string copies = (dir / "copies.yaml").string();
+    const Scene one_grid = load_scene(copies);
+    const StableStep sg = stable_step(one_grid);
+    ASSERT_EQ(sg.object, 1) << "the grid's first copy sets the step";
+    SceneLimits lg = copies_made_on_demand(MPI_COMM_WORLD);
+    lg.spread_tets = 100;
+    std::vector<std::vector<double>> summed;
+    lg.sum = [&summed, inner = lg.sum](std::vector<double>& v) {
+      inner(v);
+      summed.push_back(v);
+    };
+    const Scene shared_grid = load_scene(copies, lg);
+    EXPECT_EQ(bits(shared_grid.sim.dt), bits(one_grid.sim.dt));
+    const std::size_t objects = one_grid.objects.size();
+    long with_slots = 0;
+    for (const auto& v : summed) {
+      if (v.size() != objects + static_cast<std::size_t>(n)) continue;
+      ++with_slots;
+      double w = 0;
+      for (int k = 0; k < n; ++k) {
+        EXPECT_GT(v[objects + static_cast<std::size_t>(k)], 0) << "rank " << k << " measured its range";
+        w = std::max(w, v[objects + static_cast<std::size_t>(k)]);
+      }
+      EXPECT_EQ(bits(w), bits(sg.omega_element)) << "the ranges' maximum is the whole mesh's";
+      EXPECT_EQ(v[1], 0) << "the grid's value is not computed whole as well";
+    }
+    EXPECT_EQ(with_slots, n > 1 ? 1 : 0) << "one sum with a slot per rank, on more than one rank";
   }
 }
