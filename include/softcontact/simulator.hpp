@@ -17,6 +17,7 @@
 #include <mpi.h>
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -176,6 +177,9 @@ public:
   /// (ranks evaluating them) of one: split_part_count; the same on every rank.
   int split_objects() const { return split_count_; }
   int split_ranks() const { return split_ranks_; }
+  /// How many times this rank computed a split object's parts (its owner does, and sends
+  /// them to the other ranks that take part: share_split_parts).
+  std::int64_t split_parts_computed() const { return split_parts_computed_; }
   /// Per split object (split_candidates, ascending): the rank that evaluates each part.
   const SplitHosts& split_hosts() const { return split_hosts_; }
   /// Ghost-set rebuilds so far (the halo grows and shrinks as objects move).
@@ -228,6 +232,7 @@ private:
   // Before forces are evaluated: the split objects' plan (split_forces.hpp), made again
   // when the World was replaced.
   void prepare_split();
+  void share_split_parts(const std::function<bool(std::size_t)>& takes_part);
   void share_ghost_holders();
   void rebuild_ghosts(bool force);
   void follow_ghosts();
@@ -280,6 +285,7 @@ private:
   std::int64_t delegated_before_[2] = {0, 0};  // delegated records sent, received by the cores replaced so far
   std::size_t dropped_bytes_ = 0;              // mesh bytes dropped and not yet trimmed (trim_dropped)
   std::int64_t split_ghost_generation_ = -1;   // GhostSet::rebuilds() when the split's ghost holders were shared
+  std::int64_t split_parts_computed_ = 0;
   std::map<int, std::vector<std::int32_t>> split_parts_;  // object -> its tets' parts (split_part_count of them)
 };
 

@@ -123,7 +123,8 @@ void Simulator::release_components() {
 
 // Objects split for their forces (split_forces.hpp): every candidate is cut into
 // split_part_count parts (METIS with a fixed seed on the object's dual graph, computed
-// alike by every rank that takes part, and kept), each evaluated by its host
+// by its owner and sent to the ranks that take part, each keeping them:
+// share_split_parts), each evaluated by its host
 // (split_hosts_: one part per rank, or the ranks the partition kept room on). The plan
 // is made again after a migration. A rank that neither owns nor hosts an object needs
 // nothing of it.
@@ -149,6 +150,7 @@ void Simulator::prepare_split() {
       from.push_back(partition_[static_cast<std::size_t>(split_candidates_[i])]);
     }
   (void)fetch_meshes_if_needed(comm_, scene_, mine, from);
+  share_split_parts(takes_part);
   std::vector<SplitObject> plan;
   split_ranks_ = 0;
   for (std::size_t i = 0; i < split_candidates_.size(); ++i) {
@@ -157,14 +159,7 @@ void Simulator::prepare_split() {
     split_ranks_ = std::max(split_ranks_, static_cast<int>(h.size()));
     std::vector<std::int32_t> tet_part;
     if (takes_part(i)) {
-      std::vector<std::int32_t>& parts = split_parts_[k];
-      if (parts.empty()) {
-        const SplitParts how = scene_.sim.split_parts;
-        const std::size_t metis_max = how == SplitParts::metis       ? std::numeric_limits<std::size_t>::max()
-                                      : how == SplitParts::bisection ? 0
-                                                                     : kSplitMetisMaxTets;
-        parts = split_tet_parts(scene_.view_mesh(static_cast<std::size_t>(k)).get(), static_cast<int>(h.size()), metis_max);
-      }
+      const std::vector<std::int32_t>& parts = split_parts_.at(k);
       tet_part.reserve(parts.size());
       for (std::int32_t q : parts) tet_part.push_back(h[static_cast<std::size_t>(q)]);
     }
@@ -175,6 +170,49 @@ void Simulator::prepare_split() {
   split_dirty_ = false;
   split_count_ = static_cast<int>(split_candidates_.size());
   share_ghost_holders();
+}
+
+// Every rank taking part in a split object gets its tets' parts (split_tet_parts: METIS
+// on the object's dual graph, or a coordinate bisection past kSplitMetisMaxTets tets)
+// from the object's owner, which alone computes them: the other ranks neither repeat the
+// work nor hold its memory (METIS's graph of a 2^21-tet object is 352 MiB). A rank keeps
+// its parts once it has them; which ranks still lack them is all-gathered, so a new host
+// after a migration asks and one that has them does not. Each object's sends and receives
+// happen in candidate order on every rank (a star from the owner), so no rank waits on a
+// later object. Collective.
+void Simulator::share_split_parts(const std::function<bool(std::size_t)>& takes_part) {
+  const std::size_t n = split_candidates_.size();
+  std::vector<char> need(n, 0), needs(n * static_cast<std::size_t>(nranks_), 0);
+  for (std::size_t i = 0; i < n; ++i) need[i] = takes_part(i) && !split_parts_.count(split_candidates_[i]) ? 1 : 0;
+  MPI_Allgather(need.data(), static_cast<int>(n), MPI_CHAR, needs.data(), static_cast<int>(n), MPI_CHAR, comm_);
+  constexpr int kTag = 0x5b1;
+  for (std::size_t i = 0; i < n; ++i) {
+    const int k = split_candidates_[i];
+    const int owner = partition_[static_cast<std::size_t>(k)];
+    const auto needs_of = [&](int r) { return needs[static_cast<std::size_t>(r) * n + i] != 0; };
+    if (rank_ == owner) {
+      bool asked = false;
+      for (int r = 0; r < nranks_; ++r) asked = asked || needs_of(r);
+      if (!asked) continue;
+      std::vector<std::int32_t>& parts = split_parts_[k];
+      if (parts.empty()) {
+        const SplitParts how = scene_.sim.split_parts;
+        const std::size_t metis_max = how == SplitParts::metis       ? std::numeric_limits<std::size_t>::max()
+                                      : how == SplitParts::bisection ? 0
+                                                                     : kSplitMetisMaxTets;
+        parts = split_tet_parts(scene_.view_mesh(static_cast<std::size_t>(k)).get(),
+                                static_cast<int>(split_hosts_[i].size()), metis_max);
+        ++split_parts_computed_;
+      }
+      for (int r = 0; r < nranks_; ++r)
+        if (r != owner && needs_of(r))
+          MPI_Send(parts.data(), static_cast<int>(parts.size()), MPI_INT32_T, r, kTag, comm_);
+    } else if (need[i]) {
+      std::vector<std::int32_t>& parts = split_parts_[k];
+      parts.resize(scene_.shape(static_cast<std::size_t>(k)).tets);
+      MPI_Recv(parts.data(), static_cast<int>(parts.size()), MPI_INT32_T, owner, kTag, comm_, MPI_STATUS_IGNORE);
+    }
+  }
 }
 
 // Which ranks hold each split object as a ghost, so that their parts take its positions

@@ -414,12 +414,14 @@ TEST(Distributed, SoftFloorSplitOverRanksIsBitwiseOneRanks) {
     const Scene& scene = threads > 0 ? soft_floor() : bisected;
     SCOPED_TRACE(threads > 0 ? std::to_string(threads) + " thread(s) per rank" : "split_parts: bisection, 1 thread");
     int split_steps = 0, migrations = 0;
+    std::int64_t computed = 0;
     expect_identical(
         std::max(threads, 1),
         [&](Simulator& sim, int s) {
           // Every rank holds the floor (its owner, or a ghost under the balls): all share it,
           // and every part off the owner takes the floor's positions from its ghost rows.
           if (sim.split_objects() == 1 && sim.split_ranks() == n) ++split_steps;
+          computed = sim.split_parts_computed();
           const auto [helping, from_ghosts] = helping_parts(sim);
           EXPECT_EQ(helping, n - 1) << "step " << s;
           EXPECT_EQ(from_ghosts, n - 1) << "step " << s;
@@ -428,6 +430,10 @@ TEST(Distributed, SoftFloorSplitOverRanksIsBitwiseOneRanks) {
         nullptr, scene);
     EXPECT_EQ(split_steps, n > 1 ? kSteps : 0) << "the floor was not split at every step";
     EXPECT_EQ(migrations, n > 1 ? 1 : 0);
+    // The floor's parts computed once, by its first owner, and sent to the other ranks;
+    // its owner after the migration already had them.
+    MPI_Allreduce(MPI_IN_PLACE, &computed, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+    EXPECT_EQ(computed, n > 1 ? 1 : 0) << "the parts computed by one rank only";
   }
 }
 
