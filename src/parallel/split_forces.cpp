@@ -330,8 +330,9 @@ void SplitForces::evaluate(const World& w, bool damping, NeighbourExchange* exch
   // 1. Each part's state from the owner: positions, and velocities where the stiffness
   // damping needs them, of its vertices in ascending order.
   std::vector<std::vector<double>>& in = state_in_;  // one buffer per peer, resized in place by the exchange
-  if (!exchange) in.clear();
-  if (exchange) {
+  if (!exchange) {
+    in.clear();
+  } else {
     send_.resize(peers_.size());
     for (std::vector<double>& b : send_) b.clear();
     for (const std::unique_ptr<Merge>& gp : merges_) {
