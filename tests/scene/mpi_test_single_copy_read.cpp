@@ -391,13 +391,18 @@ TEST(SingleCopyRead, ALargeMeshsFrequencyIsSharedOverTheRanksAndIsTheMakersToThe
   const double push[3] = {0.019, 0.011, -0.007};
   for (int c = 0; c < 3; ++c) base.points[3 * centre + c] += push[c];
   const std::size_t nt = base.num_tets();
-  std::vector<double> w(nt);
-  for (std::size_t t = 0; t < nt; ++t) {
-    double X[12];
-    for (int k = 0; k < 4; ++k)
-      for (int c = 0; c < 3; ++c) X[3 * k + c] = base.points[3 * static_cast<std::size_t>(base.tets[4 * t + k]) + c];
-    w[t] = tet_max_frequency(X, probe);
-  }
+  // Each tet's frequency, by a direct loop (the reference).
+  const auto frequencies = [&probe](const TetMesh& m) {
+    std::vector<double> f(m.num_tets());
+    for (std::size_t t = 0; t < f.size(); ++t) {
+      double X[12];
+      for (int k = 0; k < 4; ++k)
+        for (int c = 0; c < 3; ++c) X[3 * k + c] = m.points[3 * static_cast<std::size_t>(m.tets[4 * t + k]) + c];
+      f[t] = tet_max_frequency(X, probe);
+    }
+    return f;
+  };
+  const std::vector<double> w = frequencies(base);
   const std::size_t stiffest = static_cast<std::size_t>(std::max_element(w.begin(), w.end()) - w.begin());
   std::vector<double> sorted = w;
   std::sort(sorted.rbegin(), sorted.rend());
@@ -442,13 +447,7 @@ TEST(SingleCopyRead, ALargeMeshsFrequencyIsSharedOverTheRanksAndIsTheMakersToThe
     // The reference: a direct loop over the placed mesh's tets, on one rank.
     const TetMesh& placed = one.objects[1].mesh;
     ASSERT_EQ(placed.num_tets(), nt);
-    std::vector<double> wp(nt);
-    for (std::size_t t = 0; t < nt; ++t) {
-      double X[12];
-      for (int k = 0; k < 4; ++k)
-        for (int c = 0; c < 3; ++c) X[3 * k + c] = placed.points[3 * static_cast<std::size_t>(placed.tets[4 * t + k]) + c];
-      wp[t] = tet_max_frequency(X, probe);
-    }
+    const std::vector<double> wp = frequencies(placed);
     ASSERT_EQ(static_cast<std::size_t>(std::max_element(wp.begin(), wp.end()) - wp.begin()), at) << "the stiffest tet where it was put";
     const StableStep s = stable_step(one);
     ASSERT_EQ(s.object, 1) << "the big mesh sets the step";
