@@ -30,6 +30,7 @@
 #include "softcontact/partition.hpp"
 #include "softcontact/rebalance.hpp"
 #include "softcontact/scene.hpp"
+#include "softcontact/split_forces.hpp"
 #include "softcontact/step_state.hpp"
 #include "softcontact/surface.hpp"
 #include "softcontact/verify.hpp"
@@ -180,6 +181,10 @@ public:
   /// How many times this rank computed a split object's parts (its owner does, and sends
   /// them to the other ranks that take part: share_split_parts).
   std::int64_t split_parts_computed() const { return split_parts_computed_; }
+  /// The parts of split objects this rank was sent by their owners, and their tets: a host
+  /// that does not hold an object's mesh gets its part of it, not the whole mesh.
+  std::int64_t split_part_meshes_received() const { return split_part_meshes_received_; }
+  std::int64_t split_part_tets_received() const { return split_part_tets_received_; }
   /// Per split object (split_candidates, ascending): the rank that evaluates each part.
   const SplitHosts& split_hosts() const { return split_hosts_; }
   /// Ghost-set rebuilds so far (the halo grows and shrinks as objects move).
@@ -232,7 +237,7 @@ private:
   // Before forces are evaluated: the split objects' plan (split_forces.hpp), made again
   // when the World was replaced.
   void prepare_split();
-  void share_split_parts(const std::function<bool(std::size_t)>& takes_part);
+  std::vector<std::optional<SplitPartMesh>> share_split_parts(const std::function<bool(std::size_t)>& takes_part);
   void share_ghost_holders();
   void rebuild_ghosts(bool force);
   void follow_ghosts();
@@ -286,6 +291,7 @@ private:
   std::size_t dropped_bytes_ = 0;              // mesh bytes dropped and not yet trimmed (trim_dropped)
   std::int64_t split_ghost_generation_ = -1;   // GhostSet::rebuilds() when the split's ghost holders were shared
   std::int64_t split_parts_computed_ = 0;
+  std::int64_t split_part_meshes_received_ = 0, split_part_tets_received_ = 0;
   std::map<int, std::vector<std::int32_t>> split_parts_;  // object -> its tets' parts (split_part_count of them)
 };
 

@@ -20,6 +20,7 @@
 // owner's).
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "softcontact/scene.hpp"
@@ -46,13 +47,51 @@ std::vector<int> split_candidates(const Scene& scene, int nranks);
 /// ranks is cut into 20 parts, not 1,000, so its owner exchanges with 20 ranks.
 int split_part_count(std::int64_t tets, std::int64_t total_tets, int nranks);
 
+/// One part of a split object as its host needs it: the part's tets and their vertices,
+/// none of the rest of the object's mesh. A host that does not hold the object's mesh (a
+/// single-copy mesh it does not hold as a ghost) is sent this by the owner instead of the
+/// whole mesh (Simulator::share_split_parts); a rank that holds the mesh cuts its part
+/// itself (cut_split_part).
+struct SplitPartMesh {
+  std::vector<std::int32_t> verts;   ///< object-local ids of the part's tets' vertices, ascending
+  std::vector<double> points;        ///< their rest positions, 3 each
+  std::vector<char> fold;            ///< per vertex: 1 when every tet of the vertex is in the part
+  std::vector<std::int32_t> tets;    ///< the part's tets, object-local ids, ascending
+  std::vector<index_t> corners;      ///< 4 per tet: positions in verts
+};
+
+/// Per vertex of m: the part (a value of tet_part, one per tet) holding all its tets, or -1
+/// when its tets lie in several parts (or it has none).
+std::vector<std::int32_t> split_interior_parts(const TetMesh& m, const std::vector<std::int32_t>& tet_part);
+/// The tets t of m with tet_part[t] == part and their vertices; `interior` from
+/// split_interior_parts(m, tet_part).
+SplitPartMesh cut_split_part(const TetMesh& m, const std::vector<std::int32_t>& tet_part,
+                             const std::vector<std::int32_t>& interior, std::int32_t part);
+/// cut_split_part for each of `parts` (distinct), in one pass over m's tets.
+std::vector<SplitPartMesh> cut_split_parts(const TetMesh& m, const std::vector<std::int32_t>& tet_part,
+                                           const std::vector<std::int32_t>& interior,
+                                           const std::vector<std::int32_t>& parts);
+/// What the owner sends a host for its part, and the part the host makes of it: first
+/// the part's vertices then its tets' corners (positions among them), as one list
+/// (part_indices; the host knows the part's tets, from the parts it was sent, so it knows
+/// where the corners start: part_from_indices, which leaves `points` and `fold` empty)...
+std::vector<std::int32_t> part_indices(const SplitPartMesh& part);
+SplitPartMesh part_from_indices(std::vector<std::int32_t> tets, const std::vector<std::int32_t>& indices);
+/// ...then per vertex its rest position and fold flag (4 doubles: x, y, z, 1 or 0), set by
+/// set_part_vertex_data, which checks the count.
+std::vector<double> part_vertex_data(const SplitPartMesh& part);
+void set_part_vertex_data(SplitPartMesh& part, const std::vector<double>& data);
+
 /// One split object: its owner and the rank evaluating each of its tets (its part's host,
 /// split_hosts in rebalance.hpp). Empty `tet_part` on a rank that neither owns the
-/// object nor evaluates any of it: that rank takes no part and needs no mesh.
+/// object nor evaluates any of it: that rank takes no part and needs no mesh. A host that
+/// does not hold the object's mesh has its part in `part` (sent by the owner); the others
+/// cut theirs from the scene's mesh.
 struct SplitObject {
   int object = 0;
   int owner = 0;
   std::vector<std::int32_t> tet_part;   ///< per object tet (object-local order), in [0, ranks)
+  std::optional<SplitPartMesh> part;    ///< this rank's part, when it holds no mesh of the object
 };
 
 class SplitForces {

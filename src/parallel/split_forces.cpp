@@ -95,6 +95,118 @@ std::vector<std::int32_t> interior_parts(const Incidence& inc, const std::vector
   return out;
 }
 
+}  // namespace
+
+std::vector<std::int32_t> split_interior_parts(const TetMesh& m, const std::vector<std::int32_t>& tet_part) {
+  if (tet_part.size() != m.num_tets()) throw RuntimeFailure("split_interior_parts: a part per tet expected");
+  return interior_parts(incidence_of(m), tet_part);
+}
+
+std::vector<SplitPartMesh> cut_split_parts(const TetMesh& m, const std::vector<std::int32_t>& tet_part,
+                                           const std::vector<std::int32_t>& interior,
+                                           const std::vector<std::int32_t>& parts) {
+  if (tet_part.size() != m.num_tets() || interior.size() != m.num_vertices())
+    throw RuntimeFailure("cut_split_parts: a part per tet and a flag per vertex expected");
+  // One pass over the tets puts each into its part's list (slot: a part's place in
+  // `parts`), so that cutting P parts costs one pass over the mesh, not P; then per part
+  // its distinct vertices, found with a stamp per vertex of the mesh and sorted.
+  std::int32_t top = -1;
+  for (std::int32_t q : parts) top = std::max(top, q);
+  std::vector<std::int32_t> slot(static_cast<std::size_t>(top + 1), -1);
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    if (parts[i] < 0 || slot[static_cast<std::size_t>(parts[i])] >= 0)
+      throw RuntimeFailure("cut_split_parts: parts must be distinct and not negative");
+    slot[static_cast<std::size_t>(parts[i])] = static_cast<std::int32_t>(i);
+  }
+  std::vector<SplitPartMesh> out(parts.size());
+  for (std::size_t t = 0; t < m.num_tets(); ++t) {
+    const std::int32_t q = tet_part[t];
+    if (q >= 0 && q <= top && slot[static_cast<std::size_t>(q)] >= 0)
+      out[static_cast<std::size_t>(slot[static_cast<std::size_t>(q)])].tets.push_back(static_cast<std::int32_t>(t));
+  }
+  std::vector<index_t> at(m.num_vertices(), -1);  // a vertex's place in the part being cut
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    SplitPartMesh& p = out[i];
+    for (std::int32_t t : p.tets)
+      for (int c = 0; c < 4; ++c) {
+        const index_t v = m.tets[4 * static_cast<std::size_t>(t) + static_cast<std::size_t>(c)];
+        if (at[static_cast<std::size_t>(v)] < 0) {
+          at[static_cast<std::size_t>(v)] = 0;
+          p.verts.push_back(v);
+        }
+      }
+    std::sort(p.verts.begin(), p.verts.end());
+    p.points.reserve(3 * p.verts.size());
+    p.fold.reserve(p.verts.size());
+    for (std::size_t j = 0; j < p.verts.size(); ++j) {
+      const auto v = static_cast<std::size_t>(p.verts[j]);
+      at[v] = static_cast<index_t>(j);
+      p.points.insert(p.points.end(), &m.points[3 * v], &m.points[3 * v] + 3);
+      p.fold.push_back(interior[v] == parts[i] ? 1 : 0);
+    }
+    p.corners.reserve(4 * p.tets.size());
+    for (std::int32_t t : p.tets)
+      for (int c = 0; c < 4; ++c)
+        p.corners.push_back(at[static_cast<std::size_t>(m.tets[4 * static_cast<std::size_t>(t) + static_cast<std::size_t>(c)])]);
+    for (std::int32_t v : p.verts) at[static_cast<std::size_t>(v)] = -1;
+  }
+  return out;
+}
+
+SplitPartMesh cut_split_part(const TetMesh& m, const std::vector<std::int32_t>& tet_part,
+                             const std::vector<std::int32_t>& interior, std::int32_t part) {
+  return std::move(cut_split_parts(m, tet_part, interior, {part}).front());
+}
+
+std::vector<std::int32_t> part_indices(const SplitPartMesh& part) {
+  std::vector<std::int32_t> out;
+  out.reserve(part.verts.size() + part.corners.size());
+  out.insert(out.end(), part.verts.begin(), part.verts.end());
+  out.insert(out.end(), part.corners.begin(), part.corners.end());
+  return out;
+}
+
+std::vector<double> part_vertex_data(const SplitPartMesh& part) {
+  std::vector<double> out;
+  out.reserve(4 * part.verts.size());
+  for (std::size_t i = 0; i < part.verts.size(); ++i) {
+    out.insert(out.end(), &part.points[3 * i], &part.points[3 * i] + 3);
+    out.push_back(part.fold[i] ? 1.0 : 0.0);
+  }
+  return out;
+}
+
+SplitPartMesh part_from_indices(std::vector<std::int32_t> tets, const std::vector<std::int32_t>& indices) {
+  if (indices.size() < 4 * tets.size())
+    throw RuntimeFailure("part_from_indices: " + std::to_string(indices.size()) + " indices for " +
+                         std::to_string(tets.size()) + " tets (4 each and the vertices expected)");
+  SplitPartMesh out;
+  out.tets = std::move(tets);
+  const std::size_t nv = indices.size() - 4 * out.tets.size();
+  out.verts.assign(indices.begin(), indices.begin() + static_cast<std::ptrdiff_t>(nv));
+  out.corners.assign(indices.begin() + static_cast<std::ptrdiff_t>(nv), indices.end());
+  for (std::size_t j = 1; j < nv; ++j)
+    if (out.verts[j] <= out.verts[j - 1]) throw RuntimeFailure("part_from_indices: the vertices are not ascending");
+  for (index_t c : out.corners)
+    if (c < 0 || static_cast<std::size_t>(c) >= nv)
+      throw RuntimeFailure("part_from_indices: corner " + std::to_string(c) + " of " + std::to_string(nv) + " vertices");
+  return out;
+}
+
+void set_part_vertex_data(SplitPartMesh& part, const std::vector<double>& data) {
+  if (data.size() != 4 * part.verts.size())
+    throw RuntimeFailure("set_part_vertex_data: " + std::to_string(data.size()) + " doubles for " +
+                         std::to_string(part.verts.size()) + " vertices (4 each expected)");
+  part.points.resize(3 * part.verts.size());
+  part.fold.resize(part.verts.size());
+  for (std::size_t i = 0; i < part.verts.size(); ++i) {
+    for (int d = 0; d < 3; ++d) part.points[3 * i + static_cast<std::size_t>(d)] = data[4 * i + static_cast<std::size_t>(d)];
+    part.fold[i] = data[4 * i + 3] != 0 ? 1 : 0;
+  }
+}
+
+namespace {
+
 // The rows first + j of xyz (3 doubles each) for every j of `rows`, appended to buf.
 void append_rows(std::vector<double>& buf, const std::vector<double>& xyz, std::size_t first,
                  const std::vector<std::int32_t>& rows) {
@@ -157,28 +269,70 @@ SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitOb
       parts_.push_back(std::move(p));
       continue;
     }
-    const Scene::MeshView view = scene.view_mesh(k);
-    const TetMesh& m = view.get();
     const ObjectLayout& L = w.layout[k];
-    if (so.tet_part.size() != m.num_tets() || L.rank != so.owner)
-      throw RuntimeFailure("SplitForces: the plan of object " + std::to_string(k) + " does not match the scene");
     const bool own = so.owner == w.rank;
+    if (so.tet_part.size() != static_cast<std::size_t>(L.tet_count) || L.rank != so.owner || (own && so.part))
+      throw RuntimeFailure("SplitForces: the plan of object " + std::to_string(k) + " does not match the scene");
     if (own && w.vertex_offset[k] < 0) throw RuntimeFailure("SplitForces: object " + std::to_string(k) + " is not here");
     const bool needs_v = scene.materials[scene.objects[k].material].damping_stiffness > 0;
-    Incidence inc = incidence_of(m);
-    std::vector<std::int32_t> interior = interior_parts(inc, so.tet_part);
-    std::int32_t nparts = 0;
-    for (std::int32_t q : so.tet_part) nparts = std::max(nparts, q + 1);
+
+    // This rank's part: sent by the owner, or cut from the mesh here (the owner, and a
+    // rank holding the object's mesh, as a ghost's or made for every rank). The owner
+    // also makes the merge from the whole mesh.
+    std::unique_ptr<Merge> g;
+    SplitPartMesh cut;
+    if (so.part) {
+      cut = std::move(*so.part);
+    } else {
+      const Scene::MeshView view = scene.view_mesh(k);
+      const TetMesh& m = view.get();
+      if (m.num_tets() != so.tet_part.size())
+        throw RuntimeFailure("SplitForces: the plan of object " + std::to_string(k) + " does not match its mesh");
+      Incidence inc = incidence_of(m);
+      std::vector<std::int32_t> interior = interior_parts(inc, so.tet_part);
+      cut = cut_split_part(m, so.tet_part, interior, w.rank);
+      if (own) {
+        g = std::make_unique<Merge>();
+        std::int32_t nparts = 0;
+        for (std::int32_t q : so.tet_part) nparts = std::max(nparts, q + 1);
+        g->object = so.object;
+        g->first = static_cast<std::size_t>(w.vertex_offset[k]);
+        g->alpha = scene.materials[scene.objects[k].material].damping_mass;
+        g->send_v = needs_v;
+        g->part_vertices.resize(static_cast<std::size_t>(nparts));
+        g->holds.assign(static_cast<std::size_t>(nparts), 0);
+        std::vector<std::int32_t> seen(static_cast<std::size_t>(nparts), -1);  // the last vertex each part took
+        for (std::size_t j = 0; j + 1 < inc.offset.size(); ++j)
+          for (std::int64_t e = inc.offset[j]; e < inc.offset[j + 1]; ++e) {
+            const auto q = static_cast<std::size_t>(so.tet_part[static_cast<std::size_t>(inc.tet[static_cast<std::size_t>(e)])]);
+            if (seen[q] == static_cast<std::int32_t>(j)) continue;
+            seen[q] = static_cast<std::int32_t>(j);
+            g->part_vertices[q].push_back(static_cast<std::int32_t>(j));
+          }
+        for (std::size_t q = 0; q < g->part_vertices.size(); ++q)
+          if (static_cast<int>(q) != w.rank && !g->part_vertices[q].empty()) peers_.push_back(static_cast<int>(q));
+        // What each part's stream holds: a vertex inside it, its sum; on a cut, an entry
+        // per incident tet of the part.
+        g->part_doubles.assign(static_cast<std::size_t>(nparts), 0);
+        for (std::size_t j = 0; j + 1 < inc.offset.size(); ++j) {
+          if (interior[j] >= 0) {
+            g->part_doubles[static_cast<std::size_t>(interior[j])] += 3;
+            continue;
+          }
+          for (std::int64_t e = inc.offset[j]; e < inc.offset[j + 1]; ++e)
+            g->part_doubles[static_cast<std::size_t>(so.tet_part[static_cast<std::size_t>(inc.tet[static_cast<std::size_t>(e)])])] += 3;
+        }
+        g->inc = std::move(inc);
+        g->tet_part = std::move(so.tet_part);
+        g->interior = std::move(interior);
+      }
+    }
 
     auto p = std::make_unique<Part>();
     p->object = so.object;
     p->owner = so.owner;
     p->needs_v = needs_v;
     if (own) p->first = static_cast<std::size_t>(w.vertex_offset[k]);
-    std::vector<index_t> mini_of(m.num_vertices(), -1);
-    for (std::size_t t = 0; t < m.num_tets(); ++t)
-      if (so.tet_part[t] == w.rank)
-        for (int c = 0; c < 4; ++c) mini_of[static_cast<std::size_t>(m.tets[4 * t + c])] = 0;
     // The part's World holds its vertices and tets only: no table of the whole scene
     // (the layout and vertex offsets, 64 bytes per object of the scene), which its
     // forces never read (ElasticForces reads them only for objects excluded or held
@@ -186,29 +340,30 @@ SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitOb
     World& mw = p->mini;
     mw.rank = w.rank;
     mw.owned_objects = {so.object};
-    for (std::size_t j = 0; j < m.num_vertices(); ++j) {
-      if (mini_of[j] < 0) continue;
-      mini_of[j] = static_cast<index_t>(p->verts.size());
-      p->verts.push_back(static_cast<std::int32_t>(j));
-      p->fold.push_back(interior[j] == w.rank ? 1 : 0);
+    const std::size_t nv = cut.verts.size();
+    for (std::size_t i = 0; i < nv; ++i) {
+      const std::int32_t j = cut.verts[i];
+      if (j < 0 || j >= L.vertex_count)
+        throw RuntimeFailure("SplitForces: a part of object " + std::to_string(k) + " names vertex " + std::to_string(j) +
+                             " of " + std::to_string(L.vertex_count));
       mw.vertex_gid.push_back(L.vertex_begin + static_cast<gid_t>(j));
       mw.vertex_object.push_back(so.object);
-      for (std::size_t d = 0; d < 3; ++d) mw.x.push_back(m.points[3 * j + d]);
     }
-    const std::size_t nv = p->verts.size();
+    p->verts = std::move(cut.verts);
+    p->fold = std::move(cut.fold);
+    mw.x = std::move(cut.points);
     mw.v.assign(3 * nv, 0.0);
     mw.x_prev = mw.x;
     mw.mass.assign(nv, 0.0);      // (the merge on the owner applies -alpha m v)
     mw.inv_mass.assign(nv, 0.0);
-    for (std::size_t t = 0; t < m.num_tets(); ++t) {
-      if (so.tet_part[t] != w.rank) continue;
-      const index_t* tet = &m.tets[4 * t];
-      for (int c = 0; c < 4; ++c) mw.tets.push_back(mini_of[static_cast<std::size_t>(tet[c])]);
-      mw.tet_gid.push_back(L.tet_begin + static_cast<gid_t>(t));
+    for (std::size_t e = 0; e < cut.tets.size(); ++e) {
+      const index_t* tet = &cut.corners[4 * e];
+      mw.tets.insert(mw.tets.end(), tet, tet + 4);
+      mw.tet_gid.push_back(L.tet_begin + static_cast<gid_t>(cut.tets[e]));
       mw.tet_object.push_back(so.object);
       // As build_world computes it, so that the rest data are the owner's to the bit.
       mw.rest_volume.push_back(
-          signed_tet_volume(&m.points[3 * tet[0]], &m.points[3 * tet[1]], &m.points[3 * tet[2]], &m.points[3 * tet[3]]));
+          signed_tet_volume(&mw.x[3 * tet[0]], &mw.x[3 * tet[1]], &mw.x[3 * tet[2]], &mw.x[3 * tet[3]]));
     }
     mw.n_owned = nv;
     mw.m_owned = mw.tet_gid.size();
@@ -226,39 +381,7 @@ SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitOb
       if (mw.m_owned > 0) peers_.push_back(so.owner);
     }
     parts_.push_back(std::move(p));
-
-    if (own) {
-      auto g = std::make_unique<Merge>();
-      g->object = so.object;
-      g->first = static_cast<std::size_t>(w.vertex_offset[k]);
-      g->alpha = scene.materials[scene.objects[k].material].damping_mass;
-      g->send_v = needs_v;
-      g->part_vertices.resize(static_cast<std::size_t>(nparts));
-      g->holds.assign(static_cast<std::size_t>(nparts), 0);
-      std::vector<std::int32_t> seen(static_cast<std::size_t>(nparts), -1);  // the last vertex each part took
-      for (std::size_t j = 0; j + 1 < inc.offset.size(); ++j)
-        for (std::int64_t e = inc.offset[j]; e < inc.offset[j + 1]; ++e) {
-          const auto q = static_cast<std::size_t>(so.tet_part[static_cast<std::size_t>(inc.tet[static_cast<std::size_t>(e)])]);
-          if (seen[q] == static_cast<std::int32_t>(j)) continue;
-          seen[q] = static_cast<std::int32_t>(j);
-          g->part_vertices[q].push_back(static_cast<std::int32_t>(j));
-        }
-      for (std::size_t q = 0; q < g->part_vertices.size(); ++q)
-        if (static_cast<int>(q) != w.rank && !g->part_vertices[q].empty()) peers_.push_back(static_cast<int>(q));
-      // What each part's stream holds: a vertex inside it, its sum; on a cut, an entry per
-      // incident tet of the part.
-      g->part_doubles.assign(static_cast<std::size_t>(nparts), 0);
-      for (std::size_t j = 0; j + 1 < inc.offset.size(); ++j) {
-        if (interior[j] >= 0) {
-          g->part_doubles[static_cast<std::size_t>(interior[j])] += 3;
-          continue;
-        }
-        for (std::int64_t e = inc.offset[j]; e < inc.offset[j + 1]; ++e)
-          g->part_doubles[static_cast<std::size_t>(so.tet_part[static_cast<std::size_t>(inc.tet[static_cast<std::size_t>(e)])])] += 3;
-      }
-      g->inc = std::move(inc);
-      g->tet_part = std::move(so.tet_part);
-      g->interior = std::move(interior);
+    if (g) {
       merges_.push_back(std::move(g));
       owned_.push_back(so.object);
     }

@@ -141,16 +141,8 @@ void Simulator::prepare_split() {
     return partition_[static_cast<std::size_t>(k)] == rank_ ||
            std::find(hosts[i].begin(), hosts[i].end(), rank_) != hosts[i].end();
   };
-  // A rank taking part needs the object's mesh: a single-copy mesh not held here comes
-  // from its owner (no rank reads the file again).
-  std::vector<int> mine, from;
-  for (std::size_t i = 0; i < split_candidates_.size(); ++i)
-    if (takes_part(i)) {
-      mine.push_back(split_candidates_[i]);
-      from.push_back(partition_[static_cast<std::size_t>(split_candidates_[i])]);
-    }
-  (void)fetch_meshes_if_needed(comm_, scene_, mine, from);
-  share_split_parts(takes_part);
+  // A host that does not hold the object's mesh is sent its part of it by the owner.
+  std::vector<std::optional<SplitPartMesh>> given = share_split_parts(takes_part);
   std::vector<SplitObject> plan;
   split_ranks_ = 0;
   for (std::size_t i = 0; i < split_candidates_.size(); ++i) {
@@ -163,7 +155,7 @@ void Simulator::prepare_split() {
       tet_part.reserve(parts.size());
       for (std::int32_t q : parts) tet_part.push_back(h[static_cast<std::size_t>(q)]);
     }
-    plan.push_back({k, partition_[static_cast<std::size_t>(k)], std::move(tet_part)});
+    plan.push_back({k, partition_[static_cast<std::size_t>(k)], std::move(tet_part), std::move(given[i])});
   }
   if (core_->split()) split_doubles_before_ += core_->split()->doubles_sent();
   core_->set_split(std::make_unique<SplitForces>(scene_, world_, std::move(plan)));
@@ -177,42 +169,96 @@ void Simulator::prepare_split() {
 // from the object's owner, which alone computes them: the other ranks neither repeat the
 // work nor hold its memory (METIS's graph of a 2^21-tet object is 352 MiB). A rank keeps
 // its parts once it has them; which ranks still lack them is all-gathered, so a new host
-// after a migration asks and one that has them does not. Each object's sends and receives
-// happen in candidate order on every rank (a star from the owner), so no rank waits on a
-// later object. Collective.
-void Simulator::share_split_parts(const std::function<bool(std::size_t)>& takes_part) {
+// after a migration asks and one that has them does not. A host that does not hold the
+// object's mesh (a single-copy mesh, not its ghost) asks for its part of the mesh too
+// (SplitPartMesh: its tets' corners, then its vertices' rest positions and fold flags),
+// not the whole mesh. Each object's sends and receives happen in candidate order on
+// every rank (a star from the owner), so no rank waits on a later object. Collective.
+std::vector<std::optional<SplitPartMesh>> Simulator::share_split_parts(
+    const std::function<bool(std::size_t)>& takes_part) {
   const std::size_t n = split_candidates_.size();
+  constexpr char kParts = 1, kPartMesh = 2;  // what a rank asks for, per candidate
   std::vector<char> need(n, 0), needs(n * static_cast<std::size_t>(nranks_), 0);
-  for (std::size_t i = 0; i < n; ++i) need[i] = takes_part(i) && !split_parts_.count(split_candidates_[i]) ? 1 : 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const int k = split_candidates_[i];
+    if (!takes_part(i)) continue;
+    if (!split_parts_.count(k)) need[i] |= kParts;
+    if (partition_[static_cast<std::size_t>(k)] != rank_ && needs_owner_mesh(scene_, k)) need[i] |= kPartMesh;
+  }
   MPI_Allgather(need.data(), static_cast<int>(n), MPI_CHAR, needs.data(), static_cast<int>(n), MPI_CHAR, comm_);
+  std::vector<std::optional<SplitPartMesh>> given(n);
   constexpr int kTag = 0x5b1;
   for (std::size_t i = 0; i < n; ++i) {
     const int k = split_candidates_[i];
     const int owner = partition_[static_cast<std::size_t>(k)];
-    const auto needs_of = [&](int r) { return needs[static_cast<std::size_t>(r) * n + i] != 0; };
+    const std::vector<int>& hosts = split_hosts_[i];
+    const auto needs_of = [&](int r) { return needs[static_cast<std::size_t>(r) * n + i]; };
     if (rank_ == owner) {
-      bool asked = false;
-      for (int r = 0; r < nranks_; ++r) asked = asked || needs_of(r);
+      char asked = 0;
+      for (int r = 0; r < nranks_; ++r) asked |= needs_of(r);
       if (!asked) continue;
+      const Scene::MeshView view = scene_.view_mesh(static_cast<std::size_t>(k));  // held: the owner's
       std::vector<std::int32_t>& parts = split_parts_[k];
       if (parts.empty()) {
         const SplitParts how = scene_.sim.split_parts;
         const std::size_t metis_max = how == SplitParts::metis       ? std::numeric_limits<std::size_t>::max()
                                       : how == SplitParts::bisection ? 0
                                                                      : kSplitMetisMaxTets;
-        parts = split_tet_parts(scene_.view_mesh(static_cast<std::size_t>(k)).get(),
-                                static_cast<int>(split_hosts_[i].size()), metis_max);
+        parts = split_tet_parts(view.get(), static_cast<int>(hosts.size()), metis_max);
         ++split_parts_computed_;
       }
+      // The parts of the mesh the hosts asked for, cut in one pass: by each tet's host rank,
+      // with each vertex's interior rank.
+      std::vector<std::int32_t> cut_for;
       for (int r = 0; r < nranks_; ++r)
-        if (r != owner && needs_of(r))
+        if (r != owner && (needs_of(r) & kPartMesh)) cut_for.push_back(r);
+      std::vector<SplitPartMesh> cuts;
+      if (!cut_for.empty()) {
+        std::vector<std::int32_t> tet_rank;
+        tet_rank.reserve(parts.size());
+        for (std::int32_t q : parts) tet_rank.push_back(hosts[static_cast<std::size_t>(q)]);
+        cuts = cut_split_parts(view.get(), tet_rank, split_interior_parts(view.get(), tet_rank), cut_for);
+      }
+      for (int r = 0, c = 0; r < nranks_; ++r) {
+        if (r == owner) continue;
+        if (needs_of(r) & kParts)
           MPI_Send(parts.data(), static_cast<int>(parts.size()), MPI_INT32_T, r, kTag, comm_);
+        if (needs_of(r) & kPartMesh) {
+          SplitPartMesh& cut = cuts[static_cast<std::size_t>(c++)];
+          const std::vector<std::int32_t> indices = part_indices(cut);
+          const std::vector<double> data = part_vertex_data(cut);
+          cut = SplitPartMesh();  // packed: its memory goes as the sends go
+          MPI_Send(indices.data(), static_cast<int>(indices.size()), MPI_INT32_T, r, kTag, comm_);
+          MPI_Send(data.data(), static_cast<int>(data.size()), MPI_DOUBLE, r, kTag, comm_);
+        }
+      }
     } else if (need[i]) {
       std::vector<std::int32_t>& parts = split_parts_[k];
-      parts.resize(scene_.shape(static_cast<std::size_t>(k)).tets);
-      MPI_Recv(parts.data(), static_cast<int>(parts.size()), MPI_INT32_T, owner, kTag, comm_, MPI_STATUS_IGNORE);
+      if (need[i] & kParts) {
+        parts.resize(scene_.shape(static_cast<std::size_t>(k)).tets);
+        MPI_Recv(parts.data(), static_cast<int>(parts.size()), MPI_INT32_T, owner, kTag, comm_, MPI_STATUS_IGNORE);
+      }
+      if (need[i] & kPartMesh) {
+        std::vector<std::int32_t> tets;
+        for (std::size_t t = 0; t < parts.size(); ++t)
+          if (hosts[static_cast<std::size_t>(parts[t])] == rank_) tets.push_back(static_cast<std::int32_t>(t));
+        MPI_Status status;
+        MPI_Probe(owner, kTag, comm_, &status);
+        int count = 0;
+        MPI_Get_count(&status, MPI_INT32_T, &count);
+        std::vector<std::int32_t> indices(static_cast<std::size_t>(count));
+        MPI_Recv(indices.data(), count, MPI_INT32_T, owner, kTag, comm_, MPI_STATUS_IGNORE);
+        SplitPartMesh part = part_from_indices(std::move(tets), indices);
+        std::vector<double> data(4 * part.verts.size());
+        MPI_Recv(data.data(), static_cast<int>(data.size()), MPI_DOUBLE, owner, kTag, comm_, MPI_STATUS_IGNORE);
+        set_part_vertex_data(part, data);
+        ++split_part_meshes_received_;
+        split_part_tets_received_ += static_cast<std::int64_t>(part.tets.size());
+        given[i] = std::move(part);
+      }
     }
   }
+  return given;
 }
 
 // Which ranks hold each split object as a ghost, so that their parts take its positions

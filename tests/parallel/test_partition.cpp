@@ -8,9 +8,11 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdint>
+#include <cstring>
 #include <numeric>
 #include <random>
 #include <set>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -19,6 +21,7 @@
 #include "softcontact/ghosts.hpp"
 #include "softcontact/primitives.hpp"
 #include "softcontact/scene.hpp"
+#include "softcontact/split_forces.hpp"
 
 using namespace softcontact;
 
@@ -641,4 +644,78 @@ TEST(PartitionRepair, AboveTheTriggerNoSingleMoveLowersTheHeaviestPart) {
   }
   std::printf("  %d partitions checked, %d above the trigger\n", checked, above_trigger);
   EXPECT_GT(checked, 300);
+}
+
+// A split object's part as a host gets it (cut_split_parts, sent as part_indices and
+// part_vertex_data, rebuilt by part_from_indices and set_part_vertex_data): each part's
+// tets are exactly those of its value, ascending; its vertices are their corners, distinct
+// and ascending, at their rest positions to the bit; every corner names the tet's own
+// vertex; a vertex folds exactly when all its tets are in the part. Reference: brute
+// force over the mesh. Parts asked for out of order, a part with no tets, and the
+// rebuilt part equal to the cut one.
+TEST(SplitTetParts, PartsCutForTheirHostsHoldTheirTetsAndVertices) {
+  const TetMesh m = make_box(1, 1, 0.5, 6, 6, 3);
+  const std::size_t nt = m.num_tets();
+  std::vector<std::int32_t> rank_of = split_tet_parts(m, 3, kSplitMetisMaxTets);
+  for (std::int32_t& r : rank_of) r = 2 * r;  // the parts' hosts: ranks 0, 2, 4 (rank 1 hosts nothing)
+  const std::vector<std::int32_t> interior = split_interior_parts(m, rank_of);
+  const std::vector<std::int32_t> asked{4, 1, 0, 2};
+  const std::vector<SplitPartMesh> cuts = cut_split_parts(m, rank_of, interior, asked);
+  ASSERT_EQ(cuts.size(), asked.size());
+  std::size_t tets_seen = 0;
+  for (std::size_t i = 0; i < asked.size(); ++i) {
+    const std::int32_t q = asked[i];
+    const SplitPartMesh& p = cuts[i];
+    SCOPED_TRACE("part " + std::to_string(q));
+    std::vector<std::int32_t> tets, verts;
+    for (std::size_t t = 0; t < nt; ++t)
+      if (rank_of[t] == q) {
+        tets.push_back(static_cast<std::int32_t>(t));
+        for (int c = 0; c < 4; ++c) verts.push_back(m.tets[4 * t + static_cast<std::size_t>(c)]);
+      }
+    std::sort(verts.begin(), verts.end());
+    verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+    EXPECT_EQ(p.tets, tets);
+    EXPECT_EQ(p.verts, verts);
+    tets_seen += p.tets.size();
+    ASSERT_EQ(p.corners.size(), 4 * p.tets.size());
+    ASSERT_EQ(p.points.size(), 3 * p.verts.size());
+    ASSERT_EQ(p.fold.size(), p.verts.size());
+    for (std::size_t e = 0; e < p.tets.size(); ++e)
+      for (int c = 0; c < 4; ++c)
+        EXPECT_EQ(p.verts[static_cast<std::size_t>(p.corners[4 * e + static_cast<std::size_t>(c)])],
+                  m.tets[4 * static_cast<std::size_t>(p.tets[e]) + static_cast<std::size_t>(c)]);
+    for (std::size_t j = 0; j < p.verts.size(); ++j) {
+      const auto v = static_cast<std::size_t>(p.verts[j]);
+      EXPECT_EQ(std::memcmp(&p.points[3 * j], &m.points[3 * v], 3 * sizeof(double)), 0) << "vertex " << v;
+      bool all_here = true;
+      for (std::size_t t = 0; t < nt; ++t)
+        for (int c = 0; c < 4; ++c)
+          if (static_cast<std::size_t>(m.tets[4 * t + static_cast<std::size_t>(c)]) == v) all_here = all_here && rank_of[t] == q;
+      EXPECT_EQ(p.fold[j] != 0, all_here) << "vertex " << v;
+    }
+    if (q == 1) EXPECT_TRUE(p.tets.empty() && p.verts.empty());
+    // As a host rebuilds it from the owner's two messages.
+    SplitPartMesh got = part_from_indices(p.tets, part_indices(p));
+    set_part_vertex_data(got, part_vertex_data(p));
+    EXPECT_EQ(got.verts, p.verts);
+    EXPECT_EQ(got.corners, p.corners);
+    EXPECT_EQ(got.fold, p.fold);
+    EXPECT_EQ(std::memcmp(got.points.data(), p.points.data(), p.points.size() * sizeof(double)), 0);
+  }
+  EXPECT_EQ(tets_seen, nt);
+  EXPECT_GT(std::count(cuts[2].fold.begin(), cuts[2].fold.end(), 0), 0) << "no vertex on a cut: the test proves little";
+  // What a host refuses: too few indices, vertices out of order, a corner past the vertices.
+  const SplitPartMesh& p = cuts[0];
+  std::vector<std::int32_t> idx = part_indices(p);
+  EXPECT_THROW(part_from_indices(p.tets, std::vector<std::int32_t>(idx.begin(), idx.begin() + 3)), RuntimeFailure);
+  std::vector<std::int32_t> swapped = idx;
+  std::swap(swapped[0], swapped[1]);
+  EXPECT_THROW(part_from_indices(p.tets, swapped), RuntimeFailure);
+  std::vector<std::int32_t> past = idx;
+  past.back() = static_cast<std::int32_t>(p.verts.size());
+  EXPECT_THROW(part_from_indices(p.tets, past), RuntimeFailure);
+  SplitPartMesh short_data = part_from_indices(p.tets, idx);
+  EXPECT_THROW(set_part_vertex_data(short_data, std::vector<double>(4 * p.verts.size() - 1, 0.0)), RuntimeFailure);
+  EXPECT_THROW(cut_split_parts(m, rank_of, interior, {0, 0}), RuntimeFailure);
 }
