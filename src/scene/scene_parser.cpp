@@ -538,6 +538,16 @@ double max_or_nan(double a, double b) {
   return std::isnan(a) || std::isnan(b) ? std::numeric_limits<double>::quiet_NaN() : std::max(a, b);
 }
 
+/// The 12 coordinates of tet t's corners (corner after corner) from mesh m into X.
+void tet_corners(const TetMesh& m, std::int64_t t, double* X) {
+  for (std::size_t k = 0; k < 4; ++k) {
+    const double* p = &m.points[3 * static_cast<std::size_t>(m.tets[4 * static_cast<std::size_t>(t) + k])];
+    X[3 * k] = p[0];
+    X[3 * k + 1] = p[1];
+    X[3 * k + 2] = p[2];
+  }
+}
+
 /// Highest tet_max_frequency of tets 0 .. nt - 1, whose corners `corners(t, X)` writes;
 /// NaN when any tet's is NaN, so that the caller can reject it (std::max alone would drop
 /// a NaN). A maximum is exact in any order: the result does not depend on the threads, nor
@@ -724,11 +734,7 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
         if (d.mine) {
           const TetMesh& m = scene.objects[d.object].mesh;
           all.resize(static_cast<std::size_t>(12 * n));
-          for (std::int64_t t = 0; t < n; ++t)
-            for (int c = 0; c < 4; ++c)
-              for (int e = 0; e < 3; ++e)
-                all[static_cast<std::size_t>(12 * t + 3 * c + e)] =
-                    m.points[3 * static_cast<std::size_t>(m.tets[static_cast<std::size_t>(4 * (s + t) + c)]) + static_cast<std::size_t>(e)];
+          for (std::int64_t t = 0; t < n; ++t) tet_corners(m, s + t, &all[static_cast<std::size_t>(12 * t)]);
         }
         const std::vector<double> piece = limits.scatter(all, counts, root);
         const double wp = max_frequency(static_cast<std::ptrdiff_t>(piece.size() / 12), mat, [&piece](std::ptrdiff_t t, double X[12]) {
@@ -1035,10 +1041,8 @@ ParsedObjects parse_objects(const Reader& r, const YAML::Node& list, Scene& scen
 /// Highest tet frequency of one object (tet_max_frequency); NaN when any tet's is NaN, so
 /// that the caller can reject it (std::max alone would drop a NaN).
 double max_tet_frequency(const TetMesh& m, const Material& mat) {
-  return max_frequency(static_cast<std::ptrdiff_t>(m.num_tets()), mat, [&m](std::ptrdiff_t t, double X[12]) {
-    for (int k = 0; k < 4; ++k)
-      for (int d = 0; d < 3; ++d) X[3 * k + d] = m.points[3 * static_cast<std::size_t>(m.tets[4 * t + k]) + d];
-  });
+  return max_frequency(static_cast<std::ptrdiff_t>(m.num_tets()), mat,
+                       [&m](std::ptrdiff_t t, double X[12]) { tet_corners(m, t, X); });
 }
 
 /// The highest tet frequency of every movable object (0 for kinematic ones), computed once
@@ -1094,10 +1098,7 @@ std::vector<double> object_frequencies(const Scene& scene, int part, int parts,
       const std::ptrdiff_t lo = nt * part / parts, hi = nt * (part + 1) / parts;
       std::vector<double> slots(P, 0.0);
       slots[static_cast<std::size_t>(part)] = with_mesh([&](const TetMesh& m) {
-        return max_frequency(hi - lo, mat, [&m, lo](std::ptrdiff_t t, double X[12]) {
-          for (int k = 0; k < 4; ++k)
-            for (int d = 0; d < 3; ++d) X[3 * k + d] = m.points[3 * static_cast<std::size_t>(m.tets[4 * (lo + t) + k]) + d];
-        });
+        return max_frequency(hi - lo, mat, [&m, lo](std::ptrdiff_t t, double X[12]) { tet_corners(m, lo + t, X); });
       });
       frequency.insert(frequency.end(), slots.begin(), slots.end());
       wide.push_back(i);
