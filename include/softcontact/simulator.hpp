@@ -185,6 +185,9 @@ public:
   /// that does not hold an object's mesh gets its part of it, not the whole mesh.
   std::int64_t split_part_meshes_received() const { return split_part_meshes_received_; }
   std::int64_t split_part_tets_received() const { return split_part_tets_received_; }
+  /// The split objects whose parts of every tet this rank keeps (their owners, and the
+  /// hosts that cut their part from a mesh they hold).
+  std::size_t split_parts_kept() const { return split_parts_.size(); }
   /// Per split object (split_candidates, ascending): the rank that evaluates each part.
   const SplitHosts& split_hosts() const { return split_hosts_; }
   /// Ghost-set rebuilds so far (the halo grows and shrinks as objects move).

@@ -71,12 +71,12 @@ SplitPartMesh cut_split_part(const TetMesh& m, const std::vector<std::int32_t>& 
 std::vector<SplitPartMesh> cut_split_parts(const TetMesh& m, const std::vector<std::int32_t>& tet_part,
                                            const std::vector<std::int32_t>& interior,
                                            const std::vector<std::int32_t>& parts);
-/// What the owner sends a host for its part, and the part the host makes of it: first
-/// the part's vertices then its tets' corners (positions among them), as one list
-/// (part_indices; the host knows the part's tets, from the parts it was sent, so it knows
-/// where the corners start: part_from_indices, which leaves `points` and `fold` empty)...
+/// What the owner sends a host for its part, and the part the host makes of it: the
+/// number of the part's tets, the tets, the part's vertices, then its tets' corners
+/// (positions among the vertices), as one list (part_indices; part_from_indices checks it
+/// and leaves `points` and `fold` empty)...
 std::vector<std::int32_t> part_indices(const SplitPartMesh& part);
-SplitPartMesh part_from_indices(std::vector<std::int32_t> tets, const std::vector<std::int32_t>& indices);
+SplitPartMesh part_from_indices(const std::vector<std::int32_t>& indices);
 /// ...then per vertex its rest position and fold flag (4 doubles: x, y, z, 1 or 0), set by
 /// set_part_vertex_data, which checks the count.
 std::vector<double> part_vertex_data(const SplitPartMesh& part);
@@ -85,8 +85,8 @@ void set_part_vertex_data(SplitPartMesh& part, const std::vector<double>& data);
 /// One split object: its owner and the rank evaluating each of its tets (its part's host,
 /// split_hosts in rebalance.hpp). Empty `tet_part` on a rank that neither owns the
 /// object nor evaluates any of it: that rank takes no part and needs no mesh. A host that
-/// does not hold the object's mesh has its part in `part` (sent by the owner); the others
-/// cut theirs from the scene's mesh.
+/// does not hold the object's mesh has its part in `part` (sent by the owner) and no
+/// `tet_part`; the others cut theirs from the scene's mesh by `tet_part`.
 struct SplitObject {
   int object = 0;
   int owner = 0;

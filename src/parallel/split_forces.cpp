@@ -160,7 +160,9 @@ SplitPartMesh cut_split_part(const TetMesh& m, const std::vector<std::int32_t>& 
 
 std::vector<std::int32_t> part_indices(const SplitPartMesh& part) {
   std::vector<std::int32_t> out;
-  out.reserve(part.verts.size() + part.corners.size());
+  out.reserve(1 + part.tets.size() + part.verts.size() + part.corners.size());
+  out.push_back(static_cast<std::int32_t>(part.tets.size()));
+  out.insert(out.end(), part.tets.begin(), part.tets.end());
   out.insert(out.end(), part.verts.begin(), part.verts.end());
   out.insert(out.end(), part.corners.begin(), part.corners.end());
   return out;
@@ -176,17 +178,24 @@ std::vector<double> part_vertex_data(const SplitPartMesh& part) {
   return out;
 }
 
-SplitPartMesh part_from_indices(std::vector<std::int32_t> tets, const std::vector<std::int32_t>& indices) {
-  if (indices.size() < 4 * tets.size())
-    throw RuntimeFailure("part_from_indices: " + std::to_string(indices.size()) + " indices for " +
-                         std::to_string(tets.size()) + " tets (4 each and the vertices expected)");
+SplitPartMesh part_from_indices(const std::vector<std::int32_t>& indices) {
+  const std::int64_t nt = indices.empty() ? -1 : indices[0];
+  if (nt < 0 || static_cast<std::uint64_t>(indices.size()) < 1 + 5 * static_cast<std::uint64_t>(nt))
+    throw RuntimeFailure("part_from_indices: " + std::to_string(indices.size()) + " indices for " + std::to_string(nt) +
+                         " tets (the count, then the tets, the vertices and 4 corners per tet expected)");
+  const auto t = static_cast<std::size_t>(nt);
+  const std::size_t nv = indices.size() - 1 - 5 * t;
   SplitPartMesh out;
-  out.tets = std::move(tets);
-  const std::size_t nv = indices.size() - 4 * out.tets.size();
-  out.verts.assign(indices.begin(), indices.begin() + static_cast<std::ptrdiff_t>(nv));
-  out.corners.assign(indices.begin() + static_cast<std::ptrdiff_t>(nv), indices.end());
-  for (std::size_t j = 1; j < nv; ++j)
-    if (out.verts[j] <= out.verts[j - 1]) throw RuntimeFailure("part_from_indices: the vertices are not ascending");
+  const auto at = [&](std::size_t i) { return indices.begin() + static_cast<std::ptrdiff_t>(i); };
+  out.tets.assign(at(1), at(1 + t));
+  out.verts.assign(at(1 + t), at(1 + t + nv));
+  out.corners.assign(at(1 + t + nv), indices.end());
+  for (std::size_t e = 0; e < t; ++e)
+    if (out.tets[e] < 0 || (e > 0 && out.tets[e] <= out.tets[e - 1]))
+      throw RuntimeFailure("part_from_indices: the tets are not ascending");
+  for (std::size_t j = 0; j < nv; ++j)
+    if (out.verts[j] < 0 || (j > 0 && out.verts[j] <= out.verts[j - 1]))
+      throw RuntimeFailure("part_from_indices: the vertices are not ascending");
   for (index_t c : out.corners)
     if (c < 0 || static_cast<std::size_t>(c) >= nv)
       throw RuntimeFailure("part_from_indices: corner " + std::to_string(c) + " of " + std::to_string(nv) + " vertices");
@@ -260,7 +269,7 @@ struct SplitForces::Merge {
 SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitObject> plan) {
   for (SplitObject& so : plan) {
     const auto k = static_cast<std::size_t>(so.object);
-    if (so.tet_part.empty() && so.owner != w.rank) {
+    if (so.tet_part.empty() && !so.part && so.owner != w.rank) {
       // No part of it here: an idle entry (the plan's order), no mesh needed.
       auto p = std::make_unique<Part>();
       p->object = so.object;
@@ -271,7 +280,8 @@ SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitOb
     }
     const ObjectLayout& L = w.layout[k];
     const bool own = so.owner == w.rank;
-    if (so.tet_part.size() != static_cast<std::size_t>(L.tet_count) || L.rank != so.owner || (own && so.part))
+    if ((!so.part && so.tet_part.size() != static_cast<std::size_t>(L.tet_count)) || L.rank != so.owner ||
+        (own && so.part))
       throw RuntimeFailure("SplitForces: the plan of object " + std::to_string(k) + " does not match the scene");
     if (own && w.vertex_offset[k] < 0) throw RuntimeFailure("SplitForces: object " + std::to_string(k) + " is not here");
     const bool needs_v = scene.materials[scene.objects[k].material].damping_stiffness > 0;

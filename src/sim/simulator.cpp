@@ -150,7 +150,7 @@ void Simulator::prepare_split() {
     const std::vector<int>& h = hosts[i];
     split_ranks_ = std::max(split_ranks_, static_cast<int>(h.size()));
     std::vector<std::int32_t> tet_part;
-    if (takes_part(i)) {
+    if (takes_part(i) && !given[i]) {
       const std::vector<std::int32_t>& parts = split_parts_.at(k);
       tet_part.reserve(parts.size());
       for (std::int32_t q : parts) tet_part.push_back(h[static_cast<std::size_t>(q)]);
@@ -170,10 +170,13 @@ void Simulator::prepare_split() {
 // work nor hold its memory (METIS's graph of a 2^21-tet object is 352 MiB). A rank keeps
 // its parts once it has them; which ranks still lack them is all-gathered, so a new host
 // after a migration asks and one that has them does not. A host that does not hold the
-// object's mesh (a single-copy mesh, not its ghost) asks for its part of the mesh too
-// (SplitPartMesh: its tets' corners, then its vertices' rest positions and fold flags),
-// not the whole mesh. Each object's sends and receives happen in candidate order on
-// every rank (a star from the owner), so no rank waits on a later object. Collective.
+// object's mesh (a single-copy mesh, not its ghost) asks instead for its part of the mesh
+// (SplitPartMesh: its tets, vertices and tets' corners, then its vertices' rest positions
+// and fold flags), neither the whole mesh nor the parts of every tet (4 bytes per tet of
+// the object, on each such host and sent to each), and keeps no parts: should it come to
+// own the object, it computes them again (the same parts: split_tet_parts is
+// deterministic). Each object's sends and receives happen in candidate order on every
+// rank (a star from the owner), so no rank waits on a later object. Collective.
 std::vector<std::optional<SplitPartMesh>> Simulator::share_split_parts(
     const std::function<bool(std::size_t)>& takes_part) {
   const std::size_t n = split_candidates_.size();
@@ -182,8 +185,8 @@ std::vector<std::optional<SplitPartMesh>> Simulator::share_split_parts(
   for (std::size_t i = 0; i < n; ++i) {
     const int k = split_candidates_[i];
     if (!takes_part(i)) continue;
-    if (!split_parts_.count(k)) need[i] |= kParts;
-    if (partition_[static_cast<std::size_t>(k)] != rank_ && needs_owner_mesh(scene_, k)) need[i] |= kPartMesh;
+    if (partition_[static_cast<std::size_t>(k)] != rank_ && needs_owner_mesh(scene_, k)) need[i] = kPartMesh;
+    else if (!split_parts_.count(k)) need[i] = kParts;
   }
   MPI_Allgather(need.data(), static_cast<int>(n), MPI_CHAR, needs.data(), static_cast<int>(n), MPI_CHAR, comm_);
   std::vector<std::optional<SplitPartMesh>> given(n);
@@ -211,7 +214,7 @@ std::vector<std::optional<SplitPartMesh>> Simulator::share_split_parts(
       // with each vertex's interior rank.
       std::vector<std::int32_t> cut_for;
       for (int r = 0; r < nranks_; ++r)
-        if (r != owner && (needs_of(r) & kPartMesh)) cut_for.push_back(r);
+        if (r != owner && needs_of(r) == kPartMesh) cut_for.push_back(r);
       std::vector<SplitPartMesh> cuts;
       if (!cut_for.empty()) {
         std::vector<std::int32_t> tet_rank;
@@ -221,9 +224,8 @@ std::vector<std::optional<SplitPartMesh>> Simulator::share_split_parts(
       }
       for (int r = 0, c = 0; r < nranks_; ++r) {
         if (r == owner) continue;
-        if (needs_of(r) & kParts)
-          MPI_Send(parts.data(), static_cast<int>(parts.size()), MPI_INT32_T, r, kTag, comm_);
-        if (needs_of(r) & kPartMesh) {
+        if (needs_of(r) == kParts) MPI_Send(parts.data(), static_cast<int>(parts.size()), MPI_INT32_T, r, kTag, comm_);
+        if (needs_of(r) == kPartMesh) {
           SplitPartMesh& cut = cuts[static_cast<std::size_t>(c++)];
           const std::vector<std::int32_t> indices = part_indices(cut);
           const std::vector<double> data = part_vertex_data(cut);
@@ -232,30 +234,25 @@ std::vector<std::optional<SplitPartMesh>> Simulator::share_split_parts(
           MPI_Send(data.data(), static_cast<int>(data.size()), MPI_DOUBLE, r, kTag, comm_);
         }
       }
-    } else if (need[i]) {
+    } else if (need[i] == kParts) {
       std::vector<std::int32_t>& parts = split_parts_[k];
-      if (need[i] & kParts) {
-        parts.resize(scene_.shape(static_cast<std::size_t>(k)).tets);
-        MPI_Recv(parts.data(), static_cast<int>(parts.size()), MPI_INT32_T, owner, kTag, comm_, MPI_STATUS_IGNORE);
-      }
-      if (need[i] & kPartMesh) {
-        std::vector<std::int32_t> tets;
-        for (std::size_t t = 0; t < parts.size(); ++t)
-          if (hosts[static_cast<std::size_t>(parts[t])] == rank_) tets.push_back(static_cast<std::int32_t>(t));
-        MPI_Status status;
-        MPI_Probe(owner, kTag, comm_, &status);
-        int count = 0;
-        MPI_Get_count(&status, MPI_INT32_T, &count);
-        std::vector<std::int32_t> indices(static_cast<std::size_t>(count));
-        MPI_Recv(indices.data(), count, MPI_INT32_T, owner, kTag, comm_, MPI_STATUS_IGNORE);
-        SplitPartMesh part = part_from_indices(std::move(tets), indices);
-        std::vector<double> data(4 * part.verts.size());
-        MPI_Recv(data.data(), static_cast<int>(data.size()), MPI_DOUBLE, owner, kTag, comm_, MPI_STATUS_IGNORE);
-        set_part_vertex_data(part, data);
-        ++split_part_meshes_received_;
-        split_part_tets_received_ += static_cast<std::int64_t>(part.tets.size());
-        given[i] = std::move(part);
-      }
+      parts.resize(scene_.shape(static_cast<std::size_t>(k)).tets);
+      MPI_Recv(parts.data(), static_cast<int>(parts.size()), MPI_INT32_T, owner, kTag, comm_, MPI_STATUS_IGNORE);
+    } else if (need[i] == kPartMesh) {
+      MPI_Status status;
+      MPI_Probe(owner, kTag, comm_, &status);
+      int count = 0;
+      MPI_Get_count(&status, MPI_INT32_T, &count);
+      std::vector<std::int32_t> indices(static_cast<std::size_t>(count));
+      MPI_Recv(indices.data(), count, MPI_INT32_T, owner, kTag, comm_, MPI_STATUS_IGNORE);
+      SplitPartMesh part = part_from_indices(indices);
+      std::vector<double> data(4 * part.verts.size());
+      MPI_Recv(data.data(), static_cast<int>(data.size()), MPI_DOUBLE, owner, kTag, comm_, MPI_STATUS_IGNORE);
+      set_part_vertex_data(part, data);
+      ++split_part_meshes_received_;
+      split_part_tets_received_ += static_cast<std::int64_t>(part.tets.size());
+      given[i] = std::move(part);
+      split_parts_.erase(k);  // (kept from an earlier plan: not needed with the part given)
     }
   }
   return given;

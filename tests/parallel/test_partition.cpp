@@ -696,7 +696,8 @@ TEST(SplitTetParts, PartsCutForTheirHostsHoldTheirTetsAndVertices) {
     }
     if (q == 1) EXPECT_TRUE(p.tets.empty() && p.verts.empty());
     // As a host rebuilds it from the owner's two messages.
-    SplitPartMesh got = part_from_indices(p.tets, part_indices(p));
+    SplitPartMesh got = part_from_indices(part_indices(p));
+    EXPECT_EQ(got.tets, p.tets);
     set_part_vertex_data(got, part_vertex_data(p));
     EXPECT_EQ(got.verts, p.verts);
     EXPECT_EQ(got.corners, p.corners);
@@ -705,17 +706,25 @@ TEST(SplitTetParts, PartsCutForTheirHostsHoldTheirTetsAndVertices) {
   }
   EXPECT_EQ(tets_seen, nt);
   EXPECT_GT(std::count(cuts[2].fold.begin(), cuts[2].fold.end(), 0), 0) << "no vertex on a cut: the test proves little";
-  // What a host refuses: too few indices, vertices out of order, a corner past the vertices.
+  // What a host refuses: no count, too few indices, tets or vertices out of order, a
+  // corner past the vertices.
   const SplitPartMesh& p = cuts[0];
+  const std::size_t nt0 = p.tets.size();
   std::vector<std::int32_t> idx = part_indices(p);
-  EXPECT_THROW(part_from_indices(p.tets, std::vector<std::int32_t>(idx.begin(), idx.begin() + 3)), RuntimeFailure);
-  std::vector<std::int32_t> swapped = idx;
-  std::swap(swapped[0], swapped[1]);
-  EXPECT_THROW(part_from_indices(p.tets, swapped), RuntimeFailure);
+  ASSERT_EQ(idx.size(), 1 + 5 * nt0 + p.verts.size());
+  EXPECT_THROW(part_from_indices({}), RuntimeFailure);
+  EXPECT_THROW(part_from_indices(std::vector<std::int32_t>(idx.begin(), idx.begin() + static_cast<std::ptrdiff_t>(5 * nt0))),
+               RuntimeFailure);
+  std::vector<std::int32_t> tets_swapped = idx;
+  std::swap(tets_swapped[1], tets_swapped[2]);
+  EXPECT_THROW(part_from_indices(tets_swapped), RuntimeFailure);
+  std::vector<std::int32_t> verts_swapped = idx;
+  std::swap(verts_swapped[1 + nt0], verts_swapped[2 + nt0]);
+  EXPECT_THROW(part_from_indices(verts_swapped), RuntimeFailure);
   std::vector<std::int32_t> past = idx;
   past.back() = static_cast<std::int32_t>(p.verts.size());
-  EXPECT_THROW(part_from_indices(p.tets, past), RuntimeFailure);
-  SplitPartMesh short_data = part_from_indices(p.tets, idx);
+  EXPECT_THROW(part_from_indices(past), RuntimeFailure);
+  SplitPartMesh short_data = part_from_indices(idx);
   EXPECT_THROW(set_part_vertex_data(short_data, std::vector<double>(4 * p.verts.size() - 1, 0.0)), RuntimeFailure);
   EXPECT_THROW(cut_split_parts(m, rank_of, interior, {0, 0}), RuntimeFailure);
 }

@@ -664,12 +664,15 @@ TEST(Distributed, GivenPartitionTakesItsSplitHosts) {
 // so the owner sends every part its positions, and the results are one rank's to the bit,
 // also across a migration of every object to the next rank. No host holds the floor's
 // mesh: each was sent its part of it (its tets and their vertices) by the owner, and the
-// parts sent, with the owner's own, hold each of the floor's tets once.
+// parts sent, with the owner's own, hold each of the floor's tets once. Nor does a host
+// keep the parts of the floor's tets: the owner after the migration, a host before it,
+// computes them again.
 TEST(Distributed, SoftFloorSplitWithoutGhostsIsBitwiseOneRanks) {
   const int n = comm_size(MPI_COMM_WORLD), rank = comm_rank(MPI_COMM_WORLD);
   const std::int64_t floor_tets = static_cast<std::int64_t>(soft_floor_far().shape(0).tets);
   int checked = 0, migrations = 0;
   std::int64_t received_before = 0, tets_before = 0;  // part meshes here, their tets on all ranks, so far
+  std::int64_t sim_parts_computed = 0;
   expect_identical(
       1,
       [&](Simulator& sim, int s) {
@@ -680,6 +683,7 @@ TEST(Distributed, SoftFloorSplitWithoutGhostsIsBitwiseOneRanks) {
           EXPECT_EQ(received, n > 1 && !owner ? 1 : 0) << "step " << s;
           EXPECT_EQ(sim.scene().objects[0].mesh.points.empty(), n > 1 && !owner)
               << "step " << s << ": the floor's mesh held off its owner";
+          EXPECT_EQ(sim.split_parts_kept(), n > 1 && owner ? 1u : 0u) << "step " << s;
           std::int64_t tets[2] = {sim.split_part_tets_received(), owner ? sim.split_evaluated_tets() : 0};
           MPI_Allreduce(MPI_IN_PLACE, tets, 2, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
           if (n > 1) EXPECT_EQ(tets[0] - tets_before + tets[1], floor_tets) << "step " << s;
@@ -687,6 +691,7 @@ TEST(Distributed, SoftFloorSplitWithoutGhostsIsBitwiseOneRanks) {
           tets_before = tets[0];
         }
         migrations += migrate_at_step_55(sim, s);
+        sim_parts_computed = sim.split_parts_computed();
         if (s % 20 != 0) return;
         const auto [helping, from_ghosts] = helping_parts(sim);
         EXPECT_EQ(helping, n - 1) << "step " << s;
@@ -696,6 +701,9 @@ TEST(Distributed, SoftFloorSplitWithoutGhostsIsBitwiseOneRanks) {
       nullptr, soft_floor_far());
   EXPECT_EQ(checked, kSteps / 20);
   EXPECT_EQ(migrations, n > 1 ? 1 : 0);
+  std::int64_t computed = sim_parts_computed;
+  MPI_Allreduce(MPI_IN_PLACE, &computed, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+  EXPECT_EQ(computed, n > 1 ? 2 : 0) << "the parts computed by the first owner and by the second";
 }
 
 // The floor's elastic energy and inverted tets when it is split: its owner holds no rest
