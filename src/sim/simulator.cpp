@@ -164,81 +164,50 @@ void Simulator::prepare_split() {
   share_ghost_holders();
 }
 
-// Every rank taking part in a split object gets its tets' parts (split_tet_parts: METIS
-// on the object's dual graph, or a coordinate bisection past kSplitMetisMaxTets tets)
-// from the object's owner, which alone computes them: the other ranks neither repeat the
-// work nor hold its memory (METIS's graph of a 2^21-tet object is 352 MiB). A rank keeps
-// its parts once it has them; which ranks still lack them is all-gathered, so a new host
-// after a migration asks and one that has them does not. A host that does not hold the
-// object's mesh (a single-copy mesh, not its ghost) asks instead for its part of the mesh
-// (SplitPartMesh: its tets, vertices and tets' corners, then its vertices' rest positions
-// and fold flags), neither the whole mesh nor the parts of every tet (4 bytes per tet of
-// the object, on each such host and sent to each), and keeps no parts: should it come to
-// own the object, it computes them again (the same parts: split_tet_parts is
-// deterministic). Each object's sends and receives happen in candidate order on every
-// rank (a star from the owner), so no rank waits on a later object. Collective.
+// The parts of a split object's tets (split_tet_parts: METIS on the object's dual graph,
+// or a coordinate bisection past kSplitMetisMaxTets tets) are computed by its owner alone
+// and kept by it: no other rank repeats the work or holds its memory (METIS's graph of a
+// 2^21-tet object is 352 MiB), nor the part of every tet (4 bytes per tet). A new owner
+// after a migration takes them from a rank that kept them (the old owner) rather than
+// computing them again. Every other rank taking part is sent its part of the mesh by the
+// owner (SplitPartMesh: its tets, vertices and tets' corners, then its vertices' rest
+// positions and fold flags, about 28 bytes per part tet; cut_split_parts, one pass for
+// all), whether or not it holds the mesh as a ghost: the owner sends about 28 bytes per
+// tet of the object in all, where the parts of every tet to every host would be 4 bytes
+// per tet and host. Who needs a part and who keeps the parts is one MPI_Allgather of a
+// byte per candidate. Each object's messages happen in candidate order on every rank
+// (the parts to the owner, then a star from it), so no rank waits on a later object.
+// Collective.
 std::vector<std::optional<SplitPartMesh>> Simulator::share_split_parts(
     const std::function<bool(std::size_t)>& takes_part) {
   const std::size_t n = split_candidates_.size();
-  constexpr char kParts = 1, kPartMesh = 2;  // what a rank asks for, per candidate
-  std::vector<char> need(n, 0), needs(n * static_cast<std::size_t>(nranks_), 0);
+  constexpr char kNeedsPart = 1, kKeepsParts = 2;  // per rank and candidate
+  std::vector<char> mine(n, 0), all(n * static_cast<std::size_t>(nranks_), 0);
   for (std::size_t i = 0; i < n; ++i) {
     const int k = split_candidates_[i];
-    if (!takes_part(i)) continue;
-    if (partition_[static_cast<std::size_t>(k)] != rank_ && needs_owner_mesh(scene_, k)) need[i] = kPartMesh;
-    else if (!split_parts_.count(k)) need[i] = kParts;
+    if (takes_part(i) && partition_[static_cast<std::size_t>(k)] != rank_) mine[i] |= kNeedsPart;
+    if (split_parts_.count(k)) mine[i] |= kKeepsParts;
   }
-  MPI_Allgather(need.data(), static_cast<int>(n), MPI_CHAR, needs.data(), static_cast<int>(n), MPI_CHAR, comm_);
+  MPI_Allgather(mine.data(), static_cast<int>(n), MPI_CHAR, all.data(), static_cast<int>(n), MPI_CHAR, comm_);
   std::vector<std::optional<SplitPartMesh>> given(n);
   constexpr int kTag = 0x5b1;
   for (std::size_t i = 0; i < n; ++i) {
     const int k = split_candidates_[i];
     const int owner = partition_[static_cast<std::size_t>(k)];
     const std::vector<int>& hosts = split_hosts_[i];
-    const auto needs_of = [&](int r) { return needs[static_cast<std::size_t>(r) * n + i]; };
-    if (rank_ == owner) {
-      char asked = 0;
-      for (int r = 0; r < nranks_; ++r) asked |= needs_of(r);
-      if (!asked) continue;
-      const Scene::MeshView view = scene_.view_mesh(static_cast<std::size_t>(k));  // held: the owner's
-      std::vector<std::int32_t>& parts = split_parts_[k];
-      if (parts.empty()) {
-        const SplitParts how = scene_.sim.split_parts;
-        const std::size_t metis_max = how == SplitParts::metis       ? std::numeric_limits<std::size_t>::max()
-                                      : how == SplitParts::bisection ? 0
-                                                                     : kSplitMetisMaxTets;
-        parts = split_tet_parts(view.get(), static_cast<int>(hosts.size()), metis_max);
-        ++split_parts_computed_;
-      }
-      // The parts of the mesh the hosts asked for, cut in one pass: by each tet's host rank,
-      // with each vertex's interior rank.
-      std::vector<std::int32_t> cut_for;
-      for (int r = 0; r < nranks_; ++r)
-        if (r != owner && needs_of(r) == kPartMesh) cut_for.push_back(r);
-      std::vector<SplitPartMesh> cuts;
-      if (!cut_for.empty()) {
-        std::vector<std::int32_t> tet_rank;
-        tet_rank.reserve(parts.size());
-        for (std::int32_t q : parts) tet_rank.push_back(hosts[static_cast<std::size_t>(q)]);
-        cuts = cut_split_parts(view.get(), tet_rank, split_interior_parts(view.get(), tet_rank), cut_for);
-      }
-      for (int r = 0, c = 0; r < nranks_; ++r) {
-        if (r == owner) continue;
-        if (needs_of(r) == kParts) MPI_Send(parts.data(), static_cast<int>(parts.size()), MPI_INT32_T, r, kTag, comm_);
-        if (needs_of(r) == kPartMesh) {
-          SplitPartMesh& cut = cuts[static_cast<std::size_t>(c++)];
-          const std::vector<std::int32_t> indices = part_indices(cut);
-          const std::vector<double> data = part_vertex_data(cut);
-          cut = SplitPartMesh();  // packed: its memory goes as the sends go
-          MPI_Send(indices.data(), static_cast<int>(indices.size()), MPI_INT32_T, r, kTag, comm_);
-          MPI_Send(data.data(), static_cast<int>(data.size()), MPI_DOUBLE, r, kTag, comm_);
-        }
-      }
-    } else if (need[i] == kParts) {
-      std::vector<std::int32_t>& parts = split_parts_[k];
-      parts.resize(scene_.shape(static_cast<std::size_t>(k)).tets);
-      MPI_Recv(parts.data(), static_cast<int>(parts.size()), MPI_INT32_T, owner, kTag, comm_, MPI_STATUS_IGNORE);
-    } else if (need[i] == kPartMesh) {
+    const auto of = [&](int r) { return all[static_cast<std::size_t>(r) * n + i]; };
+    // The parts to an owner that lacks them, from the lowest rank that kept them.
+    int keeper = -1;
+    if (!(of(owner) & kKeepsParts))
+      for (int r = 0; r < nranks_ && keeper < 0; ++r)
+        if (of(r) & kKeepsParts) keeper = r;
+    if (rank_ == keeper) {
+      const std::vector<std::int32_t>& parts = split_parts_.at(k);
+      MPI_Send(parts.data(), static_cast<int>(parts.size()), MPI_INT32_T, owner, kTag, comm_);
+    }
+    if (rank_ != owner) {
+      split_parts_.erase(k);  // (kept as its owner before a migration: the owner keeps them now)
+      if (!(mine[i] & kNeedsPart)) continue;
       MPI_Status status;
       MPI_Probe(owner, kTag, comm_, &status);
       int count = 0;
@@ -252,7 +221,38 @@ std::vector<std::optional<SplitPartMesh>> Simulator::share_split_parts(
       ++split_part_meshes_received_;
       split_part_tets_received_ += static_cast<std::int64_t>(part.tets.size());
       given[i] = std::move(part);
-      split_parts_.erase(k);  // (kept from an earlier plan: not needed with the part given)
+      continue;
+    }
+    const Scene::MeshView view = scene_.view_mesh(static_cast<std::size_t>(k));  // held: the owner's
+    std::vector<std::int32_t>& parts = split_parts_[k];
+    if (keeper >= 0) {
+      parts.resize(scene_.shape(static_cast<std::size_t>(k)).tets);
+      MPI_Recv(parts.data(), static_cast<int>(parts.size()), MPI_INT32_T, keeper, kTag, comm_, MPI_STATUS_IGNORE);
+    } else if (parts.empty()) {
+      const SplitParts how = scene_.sim.split_parts;
+      const std::size_t metis_max = how == SplitParts::metis       ? std::numeric_limits<std::size_t>::max()
+                                    : how == SplitParts::bisection ? 0
+                                                                   : kSplitMetisMaxTets;
+      parts = split_tet_parts(view.get(), static_cast<int>(hosts.size()), metis_max);
+      ++split_parts_computed_;
+    }
+    // Every other host's part of the mesh, cut in one pass: by each tet's host rank, with
+    // each vertex's interior rank.
+    std::vector<std::int32_t> cut_for;
+    for (int r = 0; r < nranks_; ++r)
+      if (of(r) & kNeedsPart) cut_for.push_back(r);
+    if (cut_for.empty()) continue;
+    std::vector<std::int32_t> tet_rank;
+    tet_rank.reserve(parts.size());
+    for (std::int32_t q : parts) tet_rank.push_back(hosts[static_cast<std::size_t>(q)]);
+    std::vector<SplitPartMesh> cuts =
+        cut_split_parts(view.get(), tet_rank, split_interior_parts(view.get(), tet_rank), cut_for);
+    for (std::size_t c = 0; c < cut_for.size(); ++c) {
+      const std::vector<std::int32_t> indices = part_indices(cuts[c]);
+      const std::vector<double> data = part_vertex_data(cuts[c]);
+      cuts[c] = SplitPartMesh();  // packed: its memory goes as the sends go
+      MPI_Send(indices.data(), static_cast<int>(indices.size()), MPI_INT32_T, cut_for[c], kTag, comm_);
+      MPI_Send(data.data(), static_cast<int>(data.size()), MPI_DOUBLE, cut_for[c], kTag, comm_);
     }
   }
   return given;

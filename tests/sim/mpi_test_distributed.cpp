@@ -414,7 +414,9 @@ TEST(Distributed, SoftFloorSplitOverRanksIsBitwiseOneRanks) {
     const Scene& scene = threads > 0 ? soft_floor() : bisected;
     SCOPED_TRACE(threads > 0 ? std::to_string(threads) + " thread(s) per rank" : "split_parts: bisection, 1 thread");
     int split_steps = 0, migrations = 0;
-    std::int64_t computed = 0;
+    std::int64_t computed = 0, received = 0;
+    std::size_t kept = 0;
+    bool owner = false;
     expect_identical(
         std::max(threads, 1),
         [&](Simulator& sim, int s) {
@@ -422,6 +424,9 @@ TEST(Distributed, SoftFloorSplitOverRanksIsBitwiseOneRanks) {
           // and every part off the owner takes the floor's positions from its ghost rows.
           if (sim.split_objects() == 1 && sim.split_ranks() == n) ++split_steps;
           computed = sim.split_parts_computed();
+          received = sim.split_part_meshes_received();
+          kept = sim.split_parts_kept();
+          owner = sim.partition()[0] == comm_rank(MPI_COMM_WORLD);
           const auto [helping, from_ghosts] = helping_parts(sim);
           EXPECT_EQ(helping, n - 1) << "step " << s;
           EXPECT_EQ(from_ghosts, n - 1) << "step " << s;
@@ -430,10 +435,16 @@ TEST(Distributed, SoftFloorSplitOverRanksIsBitwiseOneRanks) {
         nullptr, scene);
     EXPECT_EQ(split_steps, n > 1 ? kSteps : 0) << "the floor was not split at every step";
     EXPECT_EQ(migrations, n > 1 ? 1 : 0);
-    // The floor's parts computed once, by its first owner, and sent to the other ranks;
-    // its owner after the migration already had them.
+    // The floor's parts computed once, by its first owner; its owner after the migration
+    // took them from it.
     MPI_Allreduce(MPI_IN_PLACE, &computed, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
     EXPECT_EQ(computed, n > 1 ? 1 : 0) << "the parts computed by one rank only";
+    // Every rank but the owner was sent its part, at the start and again after the
+    // migration, though it holds the floor as a ghost (n - 1 parts each time); only the
+    // owner keeps the parts of every tet.
+    EXPECT_EQ(kept, n > 1 && owner ? 1u : 0u) << "parts of every tet kept here";
+    MPI_Allreduce(MPI_IN_PLACE, &received, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+    EXPECT_EQ(received, 2 * (n - 1)) << "part meshes sent";
   }
 }
 
@@ -664,9 +675,9 @@ TEST(Distributed, GivenPartitionTakesItsSplitHosts) {
 // so the owner sends every part its positions, and the results are one rank's to the bit,
 // also across a migration of every object to the next rank. No host holds the floor's
 // mesh: each was sent its part of it (its tets and their vertices) by the owner, and the
-// parts sent, with the owner's own, hold each of the floor's tets once. Nor does a host
-// keep the parts of the floor's tets: the owner after the migration, a host before it,
-// computes them again.
+// parts sent, with the owner's own, hold each of the floor's tets once. Only the owner
+// keeps the parts of the floor's tets: the owner after the migration takes them from the
+// first one, which keeps them no more, so they are computed once.
 TEST(Distributed, SoftFloorSplitWithoutGhostsIsBitwiseOneRanks) {
   const int n = comm_size(MPI_COMM_WORLD), rank = comm_rank(MPI_COMM_WORLD);
   const std::int64_t floor_tets = static_cast<std::int64_t>(soft_floor_far().shape(0).tets);
@@ -703,7 +714,7 @@ TEST(Distributed, SoftFloorSplitWithoutGhostsIsBitwiseOneRanks) {
   EXPECT_EQ(migrations, n > 1 ? 1 : 0);
   std::int64_t computed = sim_parts_computed;
   MPI_Allreduce(MPI_IN_PLACE, &computed, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
-  EXPECT_EQ(computed, n > 1 ? 2 : 0) << "the parts computed by the first owner and by the second";
+  EXPECT_EQ(computed, n > 1 ? 1 : 0) << "the parts computed by the first owner only";
 }
 
 // The floor's elastic energy and inverted tets when it is split: its owner holds no rest
