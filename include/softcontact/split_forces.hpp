@@ -48,10 +48,9 @@ std::vector<int> split_candidates(const Scene& scene, int nranks);
 int split_part_count(std::int64_t tets, std::int64_t total_tets, int nranks);
 
 /// One part of a split object as its host needs it: the part's tets and their vertices,
-/// none of the rest of the object's mesh. A host that does not hold the object's mesh (a
-/// single-copy mesh it does not hold as a ghost) is sent this by the owner instead of the
-/// whole mesh (Simulator::share_split_parts); a rank that holds the mesh cuts its part
-/// itself (cut_split_part).
+/// none of the rest of the object's mesh. The owner cuts every other host's
+/// (cut_split_parts) and sends it (Simulator::share_split_parts), whether or not the host
+/// holds the mesh; its own part it cuts itself.
 struct SplitPartMesh {
   std::vector<std::int32_t> verts;   ///< object-local ids of the part's tets' vertices, ascending
   std::vector<double> points;        ///< their rest positions, 3 each
@@ -82,24 +81,22 @@ SplitPartMesh part_from_indices(const std::vector<std::int32_t>& indices);
 std::vector<double> part_vertex_data(const SplitPartMesh& part);
 void set_part_vertex_data(SplitPartMesh& part, const std::vector<double>& data);
 
-/// One split object: its owner and the rank evaluating each of its tets (its part's host,
-/// split_hosts in rebalance.hpp). Empty `tet_part` on a rank that neither owns the
-/// object nor evaluates any of it: that rank takes no part and needs no mesh. A host that
-/// does not hold the object's mesh has its part in `part` (sent by the owner) and no
-/// `tet_part`; the others cut theirs from the scene's mesh by `tet_part`.
+/// One split object: its owner and, on the owner, the rank evaluating each of its tets
+/// (its part's host, split_hosts in rebalance.hpp); on another host its part, as the owner
+/// sent it. A rank with neither takes no part and needs no mesh.
 struct SplitObject {
   int object = 0;
   int owner = 0;
-  std::vector<std::int32_t> tet_part;   ///< per object tet (object-local order), in [0, ranks)
-  std::optional<SplitPartMesh> part;    ///< this rank's part, when it holds no mesh of the object
+  std::vector<std::int32_t> tet_part;   ///< owner: per object tet (object-local order), in [0, ranks)
+  std::optional<SplitPartMesh> part;    ///< another host: its part
 };
 
 class SplitForces {
 public:
   /// `plan`: every split object (the same list on every rank), ascending. Builds this
-  /// rank's part of each (its tets' rest data, from the scene's mesh, made for the
-  /// purpose when this rank does not hold it) and, for the objects it owns, the merge
-  /// (each vertex's incident tets and their parts, each part's vertices).
+  /// rank's part of each (its tets' rest data: from the part the owner sent, or on the
+  /// owner from the object's mesh) and, for the objects it owns, the merge (each
+  /// vertex's incident tets and their parts, each part's vertices).
   SplitForces(const Scene& scene, const World& w, std::vector<SplitObject> plan);
   ~SplitForces();
   SplitForces(const SplitForces&) = delete;

@@ -269,7 +269,7 @@ struct SplitForces::Merge {
 SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitObject> plan) {
   for (SplitObject& so : plan) {
     const auto k = static_cast<std::size_t>(so.object);
-    if (so.tet_part.empty() && !so.part && so.owner != w.rank) {
+    if (so.owner != w.rank && !so.part) {
       // No part of it here: an idle entry (the plan's order), no mesh needed.
       auto p = std::make_unique<Part>();
       p->object = so.object;
@@ -280,18 +280,16 @@ SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitOb
     }
     const ObjectLayout& L = w.layout[k];
     const bool own = so.owner == w.rank;
-    if ((!so.part && so.tet_part.size() != static_cast<std::size_t>(L.tet_count)) || L.rank != so.owner ||
-        (own && so.part))
+    if (L.rank != so.owner || (own && (so.part || so.tet_part.size() != static_cast<std::size_t>(L.tet_count))))
       throw RuntimeFailure("SplitForces: the plan of object " + std::to_string(k) + " does not match the scene");
     if (own && w.vertex_offset[k] < 0) throw RuntimeFailure("SplitForces: object " + std::to_string(k) + " is not here");
     const bool needs_v = scene.materials[scene.objects[k].material].damping_stiffness > 0;
 
-    // This rank's part: sent by the owner, or cut from the mesh here (the owner, and a
-    // rank holding the object's mesh, as a ghost's or made for every rank). The owner
-    // also makes the merge from the whole mesh.
+    // This rank's part: sent by the owner, or, on the owner, cut from the mesh, with the
+    // merge made from the whole mesh.
     std::unique_ptr<Merge> g;
     SplitPartMesh cut;
-    if (so.part) {
+    if (!own) {
       cut = std::move(*so.part);
     } else {
       const Scene::MeshView view = scene.view_mesh(k);
@@ -301,41 +299,39 @@ SplitForces::SplitForces(const Scene& scene, const World& w, std::vector<SplitOb
       Incidence inc = incidence_of(m);
       std::vector<std::int32_t> interior = interior_parts(inc, so.tet_part);
       cut = cut_split_part(m, so.tet_part, interior, w.rank);
-      if (own) {
-        g = std::make_unique<Merge>();
-        std::int32_t nparts = 0;
-        for (std::int32_t q : so.tet_part) nparts = std::max(nparts, q + 1);
-        g->object = so.object;
-        g->first = static_cast<std::size_t>(w.vertex_offset[k]);
-        g->alpha = scene.materials[scene.objects[k].material].damping_mass;
-        g->send_v = needs_v;
-        g->part_vertices.resize(static_cast<std::size_t>(nparts));
-        g->holds.assign(static_cast<std::size_t>(nparts), 0);
-        std::vector<std::int32_t> seen(static_cast<std::size_t>(nparts), -1);  // the last vertex each part took
-        for (std::size_t j = 0; j + 1 < inc.offset.size(); ++j)
-          for (std::int64_t e = inc.offset[j]; e < inc.offset[j + 1]; ++e) {
-            const auto q = static_cast<std::size_t>(so.tet_part[static_cast<std::size_t>(inc.tet[static_cast<std::size_t>(e)])]);
-            if (seen[q] == static_cast<std::int32_t>(j)) continue;
-            seen[q] = static_cast<std::int32_t>(j);
-            g->part_vertices[q].push_back(static_cast<std::int32_t>(j));
-          }
-        for (std::size_t q = 0; q < g->part_vertices.size(); ++q)
-          if (static_cast<int>(q) != w.rank && !g->part_vertices[q].empty()) peers_.push_back(static_cast<int>(q));
-        // What each part's stream holds: a vertex inside it, its sum; on a cut, an entry
-        // per incident tet of the part.
-        g->part_doubles.assign(static_cast<std::size_t>(nparts), 0);
-        for (std::size_t j = 0; j + 1 < inc.offset.size(); ++j) {
-          if (interior[j] >= 0) {
-            g->part_doubles[static_cast<std::size_t>(interior[j])] += 3;
-            continue;
-          }
-          for (std::int64_t e = inc.offset[j]; e < inc.offset[j + 1]; ++e)
-            g->part_doubles[static_cast<std::size_t>(so.tet_part[static_cast<std::size_t>(inc.tet[static_cast<std::size_t>(e)])])] += 3;
+      g = std::make_unique<Merge>();
+      std::int32_t nparts = 0;
+      for (std::int32_t q : so.tet_part) nparts = std::max(nparts, q + 1);
+      g->object = so.object;
+      g->first = static_cast<std::size_t>(w.vertex_offset[k]);
+      g->alpha = scene.materials[scene.objects[k].material].damping_mass;
+      g->send_v = needs_v;
+      g->part_vertices.resize(static_cast<std::size_t>(nparts));
+      g->holds.assign(static_cast<std::size_t>(nparts), 0);
+      std::vector<std::int32_t> seen(static_cast<std::size_t>(nparts), -1);  // the last vertex each part took
+      for (std::size_t j = 0; j + 1 < inc.offset.size(); ++j)
+        for (std::int64_t e = inc.offset[j]; e < inc.offset[j + 1]; ++e) {
+          const auto q = static_cast<std::size_t>(so.tet_part[static_cast<std::size_t>(inc.tet[static_cast<std::size_t>(e)])]);
+          if (seen[q] == static_cast<std::int32_t>(j)) continue;
+          seen[q] = static_cast<std::int32_t>(j);
+          g->part_vertices[q].push_back(static_cast<std::int32_t>(j));
         }
-        g->inc = std::move(inc);
-        g->tet_part = std::move(so.tet_part);
-        g->interior = std::move(interior);
+      for (std::size_t q = 0; q < g->part_vertices.size(); ++q)
+        if (static_cast<int>(q) != w.rank && !g->part_vertices[q].empty()) peers_.push_back(static_cast<int>(q));
+      // What each part's stream holds: a vertex inside it, its sum; on a cut, an entry
+      // per incident tet of the part.
+      g->part_doubles.assign(static_cast<std::size_t>(nparts), 0);
+      for (std::size_t j = 0; j + 1 < inc.offset.size(); ++j) {
+        if (interior[j] >= 0) {
+          g->part_doubles[static_cast<std::size_t>(interior[j])] += 3;
+          continue;
+        }
+        for (std::int64_t e = inc.offset[j]; e < inc.offset[j + 1]; ++e)
+          g->part_doubles[static_cast<std::size_t>(so.tet_part[static_cast<std::size_t>(inc.tet[static_cast<std::size_t>(e)])])] += 3;
       }
+      g->inc = std::move(inc);
+      g->tet_part = std::move(so.tet_part);
+      g->interior = std::move(interior);
     }
 
     auto p = std::make_unique<Part>();

@@ -141,7 +141,7 @@ void Simulator::prepare_split() {
     return partition_[static_cast<std::size_t>(k)] == rank_ ||
            std::find(hosts[i].begin(), hosts[i].end(), rank_) != hosts[i].end();
   };
-  // A host that does not hold the object's mesh is sent its part of it by the owner.
+  // The owner keeps the parts of every tet and sends each other host its part.
   std::vector<std::optional<SplitPartMesh>> given = share_split_parts(takes_part);
   std::vector<SplitObject> plan;
   split_ranks_ = 0;
@@ -150,7 +150,7 @@ void Simulator::prepare_split() {
     const std::vector<int>& h = hosts[i];
     split_ranks_ = std::max(split_ranks_, static_cast<int>(h.size()));
     std::vector<std::int32_t> tet_part;
-    if (takes_part(i) && !given[i]) {
+    if (partition_[static_cast<std::size_t>(k)] == rank_) {
       const std::vector<std::int32_t>& parts = split_parts_.at(k);
       tet_part.reserve(parts.size());
       for (std::int32_t q : parts) tet_part.push_back(h[static_cast<std::size_t>(q)]);
