@@ -109,6 +109,10 @@ struct BenchResult {
   double split_bytes_max = 0;
   double split_bytes_sum = 0;  ///< the same, summed over the ranks
   std::int64_t split_helped_tets_max = 0;
+  /// The split objects' part meshes (and parts handed to a new owner) sent since the
+  /// Simulator was made: at set-up and after each migration, not per step (Simulator::
+  /// split_part_bytes_sent); max over ranks and sum.
+  double split_part_bytes_max = 0, split_part_bytes_sum = 0;
   /// At the end, over all ranks: parts of split objects evaluated off their owner, and of
   /// those the ones reading the positions from ghost rows (split_forces.hpp).
   int split_helping_parts = 0, split_parts_from_ghosts = 0;

@@ -185,8 +185,13 @@ public:
   /// that does not hold an object's mesh gets its part of it, not the whole mesh.
   std::int64_t split_part_meshes_received() const { return split_part_meshes_received_; }
   std::int64_t split_part_tets_received() const { return split_part_tets_received_; }
-  /// The split objects whose parts of every tet this rank keeps (their owners, and the
-  /// hosts that cut their part from a mesh they hold).
+  /// Bytes this rank sent and received in share_split_parts so far: the part meshes (their
+  /// indices, 4 bytes each, and 4 doubles per vertex) and the parts of every tet handed to
+  /// a new owner after a migration (4 bytes per tet). Set-up and migrations only, not
+  /// per step (split_bytes_sent).
+  std::int64_t split_part_bytes_sent() const { return split_part_bytes_[0]; }
+  std::int64_t split_part_bytes_received() const { return split_part_bytes_[1]; }
+  /// The split objects whose parts of every tet this rank keeps: those it owns.
   std::size_t split_parts_kept() const { return split_parts_.size(); }
   /// Per split object (split_candidates, ascending): the rank that evaluates each part.
   const SplitHosts& split_hosts() const { return split_hosts_; }
@@ -295,6 +300,7 @@ private:
   std::int64_t split_ghost_generation_ = -1;   // GhostSet::rebuilds() when the split's ghost holders were shared
   std::int64_t split_parts_computed_ = 0;
   std::int64_t split_part_meshes_received_ = 0, split_part_tets_received_ = 0;
+  std::int64_t split_part_bytes_[2] = {0, 0};  // share_split_parts: sent, received
   std::map<int, std::vector<std::int32_t>> split_parts_;  // object -> its tets' parts (split_part_count of them)
 };
 

@@ -234,15 +234,17 @@ BenchResult run_bench(MPI_Comm comm, const Scene& scene, const BenchOptions& opt
     double boxes = tests > 0 ? static_cast<double>(sim.ghost_boxes_received() - boxes0) / static_cast<double>(tests) : 0;
     MPI_Allreduce(MPI_IN_PLACE, &boxes, 1, MPI_DOUBLE, MPI_MAX, comm);
     r.ghost_boxes_max = boxes;
-    double split[2] = {static_cast<double>(sim.split_bytes_sent() - split0) / static_cast<double>(n),
-                       static_cast<double>(sim.split_helped_tets())};
-    double split_sum = split[0];
-    MPI_Allreduce(MPI_IN_PLACE, split, 2, MPI_DOUBLE, MPI_MAX, comm);
-    MPI_Allreduce(MPI_IN_PLACE, &split_sum, 1, MPI_DOUBLE, MPI_SUM, comm);
+    double split[3] = {static_cast<double>(sim.split_bytes_sent() - split0) / static_cast<double>(n),
+                       static_cast<double>(sim.split_helped_tets()), static_cast<double>(sim.split_part_bytes_sent())};
+    double split_sum[2] = {split[0], split[2]};
+    MPI_Allreduce(MPI_IN_PLACE, split, 3, MPI_DOUBLE, MPI_MAX, comm);
+    MPI_Allreduce(MPI_IN_PLACE, split_sum, 2, MPI_DOUBLE, MPI_SUM, comm);
     r.split_objects = sim.split_objects();
     r.split_bytes_max = split[0];
-    r.split_bytes_sum = split_sum;
+    r.split_bytes_sum = split_sum[0];
     r.split_helped_tets_max = static_cast<std::int64_t>(split[1]);
+    r.split_part_bytes_max = split[2];
+    r.split_part_bytes_sum = split_sum[1];
     int parts[2] = {sim.split_helping_parts(), sim.split_parts_from_ghosts()};
     MPI_Allreduce(MPI_IN_PLACE, parts, 2, MPI_INT, MPI_SUM, comm);
     r.split_helping_parts = parts[0];
@@ -384,7 +386,9 @@ void print_bench_table(std::ostream& out, const BenchResult& r) {
         << " KiB sent per step (max rank), " << fixed(r.split_bytes_sum / 1024, 1) << " KiB (all ranks); "
         << r.split_helped_tets_max
         << " tets evaluated for another rank's object (max rank); " << r.split_parts_from_ghosts << " of "
-        << r.split_helping_parts << " helping parts take the positions from their ghost rows\n";
+        << r.split_helping_parts << " helping parts take the positions from their ghost rows; their parts sent at set-up "
+        << "and migrations " << fixed(r.split_part_bytes_max / 1024, 1) << " KiB (max rank), "
+        << fixed(r.split_part_bytes_sum / 1024, 1) << " KiB (all ranks)\n";
   if (r.ranks > 1)
     out << "  load imbalance (compute, max/mean over ranks): wall " << fixed(r.compute_imbalance, 3) << ", CPU "
         << fixed(r.cpu_imbalance, 3) << "; collisions crossing ranks: " << fixed(100 * r.cross_rank_fraction, 1) << "%\n"

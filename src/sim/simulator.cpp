@@ -204,6 +204,7 @@ std::vector<std::optional<SplitPartMesh>> Simulator::share_split_parts(
     if (rank_ == keeper) {
       const std::vector<std::int32_t>& parts = split_parts_.at(k);
       MPI_Send(parts.data(), static_cast<int>(parts.size()), MPI_INT32_T, owner, kTag, comm_);
+      split_part_bytes_[0] += static_cast<std::int64_t>(sizeof(std::int32_t) * parts.size());
     }
     if (rank_ != owner) {
       split_parts_.erase(k);  // (kept as its owner before a migration: the owner keeps them now)
@@ -218,6 +219,8 @@ std::vector<std::optional<SplitPartMesh>> Simulator::share_split_parts(
       std::vector<double> data(4 * part.verts.size());
       MPI_Recv(data.data(), static_cast<int>(data.size()), MPI_DOUBLE, owner, kTag, comm_, MPI_STATUS_IGNORE);
       set_part_vertex_data(part, data);
+      split_part_bytes_[1] +=
+          static_cast<std::int64_t>(sizeof(std::int32_t) * indices.size() + sizeof(double) * data.size());
       ++split_part_meshes_received_;
       split_part_tets_received_ += static_cast<std::int64_t>(part.tets.size());
       given[i] = std::move(part);
@@ -228,6 +231,7 @@ std::vector<std::optional<SplitPartMesh>> Simulator::share_split_parts(
     if (keeper >= 0) {
       parts.resize(scene_.shape(static_cast<std::size_t>(k)).tets);
       MPI_Recv(parts.data(), static_cast<int>(parts.size()), MPI_INT32_T, keeper, kTag, comm_, MPI_STATUS_IGNORE);
+      split_part_bytes_[1] += static_cast<std::int64_t>(sizeof(std::int32_t) * parts.size());
     } else if (parts.empty()) {
       const SplitParts how = scene_.sim.split_parts;
       const std::size_t metis_max = how == SplitParts::metis       ? std::numeric_limits<std::size_t>::max()
@@ -253,6 +257,8 @@ std::vector<std::optional<SplitPartMesh>> Simulator::share_split_parts(
       cuts[c] = SplitPartMesh();  // packed: its memory goes as the sends go
       MPI_Send(indices.data(), static_cast<int>(indices.size()), MPI_INT32_T, cut_for[c], kTag, comm_);
       MPI_Send(data.data(), static_cast<int>(data.size()), MPI_DOUBLE, cut_for[c], kTag, comm_);
+      split_part_bytes_[0] +=
+          static_cast<std::int64_t>(sizeof(std::int32_t) * indices.size() + sizeof(double) * data.size());
     }
   }
   return given;

@@ -677,12 +677,14 @@ TEST(Distributed, GivenPartitionTakesItsSplitHosts) {
 // mesh: each was sent its part of it (its tets and their vertices) by the owner, and the
 // parts sent, with the owner's own, hold each of the floor's tets once. Only the owner
 // keeps the parts of the floor's tets: the owner after the migration takes them from the
-// first one, which keeps them no more, so they are computed once.
+// first one, which keeps them no more, so they are computed once. The bytes of these
+// messages (bench's set-up figure) are counted alike by their senders and receivers.
 TEST(Distributed, SoftFloorSplitWithoutGhostsIsBitwiseOneRanks) {
   const int n = comm_size(MPI_COMM_WORLD), rank = comm_rank(MPI_COMM_WORLD);
   const std::int64_t floor_tets = static_cast<std::int64_t>(soft_floor_far().shape(0).tets);
   int checked = 0, migrations = 0;
   std::int64_t received_before = 0, tets_before = 0;  // part meshes here, their tets on all ranks, so far
+  std::int64_t bytes_before[2] = {0, 0};              // the parts' bytes sent and received here, so far
   std::int64_t sim_parts_computed = 0;
   expect_identical(
       1,
@@ -700,6 +702,17 @@ TEST(Distributed, SoftFloorSplitWithoutGhostsIsBitwiseOneRanks) {
           if (n > 1) EXPECT_EQ(tets[0] - tets_before + tets[1], floor_tets) << "step " << s;
           received_before = sim.split_part_meshes_received();
           tets_before = tets[0];
+          // The bytes of those messages, counted by their senders and their receivers: the
+          // same in all; an owner receives nothing but, after the migration, the parts of
+          // every tet (4 bytes each) from the first owner.
+          const std::int64_t got = sim.split_part_bytes_received() - bytes_before[1];
+          EXPECT_EQ(got, n > 1 && owner && s == 56 ? 4 * floor_tets : owner ? 0 : got) << "step " << s;
+          if (n > 1 && !owner) EXPECT_GT(got, 0) << "step " << s;
+          std::int64_t bytes[2] = {sim.split_part_bytes_sent() - bytes_before[0], got};
+          bytes_before[0] = sim.split_part_bytes_sent();
+          bytes_before[1] = sim.split_part_bytes_received();
+          MPI_Allreduce(MPI_IN_PLACE, bytes, 2, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+          EXPECT_EQ(bytes[0], bytes[1]) << "step " << s;
         }
         migrations += migrate_at_step_55(sim, s);
         sim_parts_computed = sim.split_parts_computed();
