@@ -37,8 +37,9 @@ void unconstrained_step(World& w, const Simulation& sim, const std::vector<doubl
 /// touch; fixed vertices of objects without a motion stay where they are.
 void prescribed_motion(World& w, double t0, double t1);
 
-/// External forces: gravity m g on every movable owned vertex, into f (resized, zeroed;
-/// kinematic vertices get 0, the models then add their internal forces).
+/// External forces: gravity m g on every movable owned vertex, into f (resized to 3 per
+/// owned vertex: the forces have no ghost rows; kinematic vertices get 0, the models then
+/// add their internal forces).
 void gravity_forces(const World& w, const Vec3& g, std::vector<double>& f);
 
 }  // namespace softcontact

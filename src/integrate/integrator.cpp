@@ -1,7 +1,5 @@
 #include "softcontact/integrator.hpp"
 
-#include <algorithm>
-
 #include "softcontact/error.hpp"
 
 namespace softcontact {
@@ -13,16 +11,16 @@ constexpr std::ptrdiff_t kParallelVertices = 4096;
 }  // namespace
 
 void gravity_forces(const World& w, const Vec3& g, std::vector<double>& f) {
-  // Each owned row written once (not zeroed first: a step's array keeps its size), the
-  // ghost rows zeroed.
-  f.resize(3 * w.n_local());
+  // Each owned row written once (not zeroed first: a step's array keeps its size). The
+  // forces have no ghost rows: nothing computes or reads a force on another rank's
+  // vertex (a split object's parts send theirs in their own buffers).
+  f.resize(3 * w.n_owned);
   const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(w.n_owned);
 #pragma omp parallel for schedule(static) if (n >= kParallelVertices)
   for (std::ptrdiff_t i = 0; i < n; ++i) {
     const bool free = w.inv_mass[i] != 0;
     for (int d = 0; d < 3; ++d) f[3 * i + d] = free ? w.mass[i] * g[d] : 0.0;
   }
-  std::fill(f.begin() + 3 * n, f.end(), 0.0);
 }
 
 void start_integration(World& w, const Simulation& sim, const std::vector<double>& f) {

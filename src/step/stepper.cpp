@@ -126,7 +126,7 @@ void SerialStepper::make_detector() {
 
 void SerialStepper::delegate_detection(std::vector<std::int32_t> objects) { delegated_ = std::move(objects); }
 
-void SerialStepper::resize() { f_.resize(3 * world_.n_local(), 0.0); }
+void SerialStepper::resize() { f_.resize(3 * world_.n_owned, 0.0); }  // owned rows only (gravity_forces)
 
 void SerialStepper::start(NeighbourExchange* exchange) {
   motion_->forces(world_, f_, split_.get(), exchange);
