@@ -4,6 +4,9 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <string>
+
+#include "softcontact/error.hpp"
 
 namespace softcontact {
 
@@ -12,47 +15,73 @@ const double* P(const TetMesh& m, index_t i) { return m.points.data() + 3 * stat
 }  // namespace
 
 Surface extract_surface(const TetMesh& mesh, std::size_t* nonmanifold_faces) {
-  // Key every face by its sorted vertex triple; sort (face key, tet*4+face) so the
-  // result does not depend on hash order, then keep the faces that occur once.
-  struct Face {
-    FaceKey key;
-    std::int64_t slot;  // tet * 4 + face
-  };
+  // Faces are matched by their sorted vertex triple (face_key). They are bucketed by
+  // their smallest vertex, a counting sort linear in the faces, and each bucket (the faces
+  // whose smallest vertex is one vertex: a few dozen) is sorted by the other two; a key
+  // that occurs once is a boundary face. The boundary is then emitted in slot order (tet,
+  // then face 0..3), which no sort decides. Until 2026-12-02 all 4 m faces were sorted
+  // at once, O(m log m): 10 % of reading and setting up soft_floor on one rank
+  // (docs/benchmarks.md, "surface extraction without sorting every face").
   const std::size_t m = mesh.num_tets();
-  std::vector<Face> faces;
-  faces.reserve(4 * m);
-  for (std::size_t t = 0; t < m; ++t) {
-    const index_t* tet = mesh.tets.data() + 4 * t;
-    for (int f = 0; f < 4; ++f) {
-      faces.push_back({face_key(tet[kTetFaces[f][0]], tet[kTetFaces[f][1]], tet[kTetFaces[f][2]]),
-                       static_cast<std::int64_t>(4 * t + f)});
+  index_t top = -1;
+  for (index_t v : mesh.tets) {
+    if (v < 0) throw RuntimeFailure("extract_surface: a tet names vertex " + std::to_string(v));
+    top = std::max(top, v);
+  }
+  const std::size_t n = static_cast<std::size_t>(top) + 1;
+  auto key_of = [&](std::size_t slot) {
+    const index_t* tet = mesh.tets.data() + 4 * (slot / 4);
+    const int* f = kTetFaces[slot % 4];
+    return face_key(tet[f[0]], tet[f[1]], tet[f[2]]);
+  };
+  std::vector<std::size_t> begin(n + 1, 0);
+  for (std::size_t slot = 0; slot < 4 * m; ++slot) ++begin[static_cast<std::size_t>(key_of(slot)[0]) + 1];
+  for (std::size_t v = 0; v < n; ++v) begin[v + 1] += begin[v];
+  struct Rest {  // a face's two larger vertices, and its slot
+    index_t b, c;
+    std::size_t slot;
+  };
+  std::vector<Rest> faces(4 * m);
+  {
+    std::vector<std::size_t> at(begin.begin(), begin.end() - 1);
+    for (std::size_t slot = 0; slot < 4 * m; ++slot) {
+      const FaceKey k = key_of(slot);
+      faces[at[static_cast<std::size_t>(k[0])]++] = {k[1], k[2], slot};
     }
   }
-  std::sort(faces.begin(), faces.end(), [](const Face& x, const Face& y) {
-    return !same_face(x.key, y.key) ? face_less(x.key, y.key) : x.slot < y.slot;
-  });
-  std::vector<std::int64_t> boundary;
-  std::size_t nonmanifold = 0;
-  for (std::size_t i = 0; i < faces.size();) {
-    std::size_t j = i + 1;
-    while (j < faces.size() && same_face(faces[j].key, faces[i].key)) ++j;
-    if (j - i == 1) boundary.push_back(faces[i].slot);
-    if (j - i > 2) ++nonmanifold;
-    i = j;
+  std::vector<char> boundary(4 * m, 0);
+  std::size_t nonmanifold = 0, count = 0;
+  for (std::size_t v = 0; v < n; ++v) {
+    Rest* const first = faces.data() + begin[v];
+    Rest* const last = faces.data() + begin[v + 1];
+    std::sort(first, last, [](const Rest& x, const Rest& y) { return x.b != y.b ? x.b < y.b : x.c < y.c; });
+    for (Rest* i = first; i != last;) {
+      Rest* j = i + 1;
+      while (j != last && j->b == i->b && j->c == i->c) ++j;
+      if (j - i == 1) {
+        boundary[i->slot] = 1;
+        ++count;
+      }
+      if (j - i > 2) ++nonmanifold;
+      i = j;
+    }
   }
   if (nonmanifold_faces) *nonmanifold_faces = nonmanifold;
-  std::sort(boundary.begin(), boundary.end());
 
   Surface s;
-  s.triangles.reserve(3 * boundary.size());
-  for (std::int64_t slot : boundary) {
+  s.triangles.reserve(3 * count);
+  std::vector<char> on(n, 0);
+  for (std::size_t slot = 0; slot < 4 * m; ++slot) {
+    if (!boundary[slot]) continue;
     const index_t* tet = mesh.tets.data() + 4 * (slot / 4);
-    const int f = static_cast<int>(slot % 4);
-    for (int c = 0; c < 3; ++c) s.triangles.push_back(tet[kTetFaces[f][c]]);
+    for (int c = 0; c < 3; ++c) {
+      const index_t v = tet[kTetFaces[slot % 4][c]];
+      s.triangles.push_back(v);
+      on[static_cast<std::size_t>(v)] = 1;
+    }
   }
-  s.vertices = s.triangles;
-  std::sort(s.vertices.begin(), s.vertices.end());
-  s.vertices.erase(std::unique(s.vertices.begin(), s.vertices.end()), s.vertices.end());
+  for (std::size_t v = 0; v < n; ++v)
+    if (on[v]) s.vertices.push_back(static_cast<index_t>(v));
   return s;
 }
 
