@@ -139,8 +139,13 @@ public:
   /// change or a migration, searches exactly like the first); null: world.x.
   /// `gaps`: self-contact gaps known from earlier detectors built from the same rest
   /// positions; the new ones are added to it (null: computed here, not kept).
+  /// `previous`: the detector of this scene's World before its ghost set changed or
+  /// objects migrated, built from the same rest positions. The pieces of every object it
+  /// held numbered alike (its tet faces, mesh edges and surface hierarchy) are moved from
+  /// it to their new local indices instead of being built again; it is left fit only to
+  /// be destroyed. The new detector is the same to the bit as one built without it.
   CollisionDetector(const World& world, const CollisionSettings& settings, const double* rest_x = nullptr,
-                    SelfGapCache* gaps = nullptr);
+                    SelfGapCache* gaps = nullptr, CollisionDetector* previous = nullptr);
   ~CollisionDetector();
   CollisionDetector(CollisionDetector&&) noexcept;
   CollisionDetector& operator=(CollisionDetector&&) noexcept;

@@ -234,7 +234,9 @@ struct CollisionDetector::Impl {
   std::vector<std::vector<std::uint32_t>> kept_k_buf;
   bool any_bad = false;                     // a non-finite position this step
 
-  Impl(const World& w, const CollisionSettings& s, const double* rest_x, SelfGapCache* gaps);
+  bool from_rest = false;       // the hierarchies were built from rest positions given to the constructor
+
+  Impl(const World& w, const CollisionSettings& s, const double* rest_x, SelfGapCache* gaps, Impl* previous);
   void detect(const World& w, const double* x_start, std::vector<Collision>& out, CollisionStats& st);
 
 private:
@@ -250,18 +252,31 @@ private:
   void depth(const World& w, const double* x_start, std::vector<Collision>& out, CollisionStats& st);
 };
 
-CollisionDetector::Impl::Impl(const World& w, const CollisionSettings& s, const double* rest_x, SelfGapCache* gaps)
-    : settings(s), topo(build_collision_topology(w)) {
+CollisionDetector::Impl::Impl(const World& w, const CollisionSettings& s, const double* rest_x, SelfGapCache* gaps,
+                              Impl* previous)
+    : settings(s), topo(build_collision_topology(w, previous ? &previous->topo : nullptr)), from_rest(rest_x != nullptr) {
   if (settings.edge_contacts) surface_edges = build_surface_edges(w, topo);
   if (settings.self_collisions) culling.build(w, topo, rest_x ? rest_x : w.x.data(), gaps);
   double h = settings.cell_size > 0 ? settings.cell_size : topo.mean_edge_length;
   if (!(h > 0) || !std::isfinite(h)) h = 1;  // no edges at all: any size works
   grid.set_cell_size(h);
   bvh.resize(topo.objects.size());
+  // An object the previous detector held alike keeps its tree, when both were built from
+  // the rest positions (the same ones: the scene's).
+  const std::vector<std::int32_t> from = previous && previous->from_rest && from_rest
+                                             ? matching_slots(topo, previous->topo)
+                                             : std::vector<std::int32_t>(topo.objects.size(), -1);
   for (std::size_t k = 0; k < topo.objects.size(); ++k) {
     // The tree's shape (and so the order of its search results) depends on the positions
     // it is built from: the rest positions, whenever the detector is built.
-    bvh[k].build(rest_x ? rest_x : w.x.data(), w.triangles.data(), topo.objects[k].triangles);
+    const ObjectInfo& o = topo.objects[k];
+    if (from[k] >= 0 && !o.triangles.empty()) {
+      const auto j = static_cast<std::size_t>(from[k]);
+      bvh[k] = std::move(previous->bvh[j]);
+      bvh[k].shift_triangles(o.triangles.front() - previous->topo.objects[j].triangles.front());
+    } else {
+      bvh[k].build(rest_x ? rest_x : w.x.data(), w.triangles.data(), o.triangles);
+    }
     const double t = topo.objects[k].thickness;
     if (t > 0 && (thinnest == 0 || t < thinnest)) thinnest = t;
   }
@@ -758,8 +773,8 @@ void CollisionDetector::Impl::detect(const World& w, const double* x_start, std:
 }
 
 CollisionDetector::CollisionDetector(const World& world, const CollisionSettings& settings, const double* rest_x,
-                                     SelfGapCache* gaps)
-    : impl_(std::make_unique<Impl>(world, settings, rest_x, gaps)) {}
+                                     SelfGapCache* gaps, CollisionDetector* previous)
+    : impl_(std::make_unique<Impl>(world, settings, rest_x, gaps, previous ? previous->impl_.get() : nullptr)) {}
 CollisionDetector::~CollisionDetector() = default;
 CollisionDetector::CollisionDetector(CollisionDetector&&) noexcept = default;
 CollisionDetector& CollisionDetector::operator=(CollisionDetector&&) noexcept = default;

@@ -34,7 +34,8 @@ bool key_less(const FaceRecord& a, const FaceRecord& b) {
 // triangle in key_less order); anything else (a face of three or more tets, a face
 // without either) is left open. Then per tet, bit j of the mask for each face with no
 // neighbour tet; and the faces left open counted.
-void build_faces(const World& w, CollisionTopology& t) {
+void build_faces(const World& w, CollisionTopology& t, const CollisionTopology* before,
+                 const std::vector<std::int32_t>& from) {
   const std::size_t m = w.tets.size() / 4;
   t.face_neighbour.assign(4 * m, kOpenFace);
   t.boundary_mask.assign(m, 0);
@@ -53,7 +54,9 @@ void build_faces(const World& w, CollisionTopology& t) {
   // allocates nothing: an exhausted memory is a std::bad_alloc here, reported as such, not
   // an exception escaping an OpenMP region (std::terminate).
   std::size_t most_faces = 0, widest = 0;
-  for (const ObjectInfo& o : t.objects) {
+  for (std::size_t k = 0; k < t.objects.size(); ++k) {
+    const ObjectInfo& o = t.objects[k];
+    if (from[k] >= 0) continue;  // taken from `before`
     most_faces = std::max(most_faces, 4 * o.tets.size() + o.triangles.size());
     if (!o.vertices.empty())
       widest = std::max(widest, static_cast<std::size_t>(o.vertices.back() - o.vertices.front()) + 1);
@@ -67,6 +70,21 @@ void build_faces(const World& w, CollisionTopology& t) {
   parallel_for_dynamic(t.objects.size(), [&](std::size_t k, int thread) {
     const ObjectInfo& o = t.objects[k];
     if (o.vertices.empty()) return;
+    if (from[k] >= 0) {
+      // The same faces as before, the neighbours moved with the object's tets and
+      // triangles (each a contiguous range in both Worlds: matching_slots).
+      const ObjectInfo& b = before->objects[static_cast<std::size_t>(from[k])];
+      if (o.tets.empty()) return;
+      const index_t dt = o.tets.front() - b.tets.front();
+      const index_t ds = o.triangles.empty() ? 0 : o.triangles.front() - b.triangles.front();
+      const auto* src = &before->face_neighbour[4 * static_cast<std::size_t>(b.tets.front())];
+      auto* dst = &t.face_neighbour[4 * static_cast<std::size_t>(o.tets.front())];
+      for (std::size_t q = 0; q < 4 * o.tets.size(); ++q) {
+        const index_t f = src[q];
+        dst[q] = f >= 0 ? f + dt : (f == kOpenFace ? f : f - ds);  // triangle r is -(r + 1)
+      }
+      return;
+    }
     std::vector<FaceRecord>& faces = face_buffers[static_cast<std::size_t>(thread)];
     std::vector<std::size_t>& begin = begin_buffers[static_cast<std::size_t>(thread)];
     const index_t v0 = o.vertices.front();
@@ -133,47 +151,72 @@ void build_faces(const World& w, CollisionTopology& t) {
 // only its own). No sort of the whole world's edges (the rebuild of every ghost set pays
 // this). The mean length adds the edges (a, b), a < b, in ascending (a, b) order, row by
 // row: the order, and so the bits, of a sorted list of all pairs.
-void build_edges(const World& w, CollisionTopology& t) {
+void build_edges(const World& w, CollisionTopology& t, const CollisionTopology* before,
+                 const std::vector<std::int32_t>& from) {
   const std::size_t n = w.n_local(), m = w.tets.size() / 4;
+  // A vertex of an object taken from `before`: its row there (the same row, every entry
+  // moved by the object's shift, which the entries share: an edge joins one object's vertices).
+  auto taken = [&](std::size_t v) { return from[static_cast<std::size_t>(t.vertex_slot[v])] >= 0; };
+  auto old_row = [&](std::size_t v, index_t& shift) {
+    const std::size_t k = static_cast<std::size_t>(t.vertex_slot[v]);
+    const ObjectInfo& b = before->objects[static_cast<std::size_t>(from[k])];
+    shift = t.objects[k].vertices.front() - b.vertices.front();
+    return static_cast<std::size_t>(static_cast<index_t>(v) - shift);
+  };
   std::vector<std::size_t> begin(n + 1, 0);
-  for (std::size_t e = 0; e < m; ++e)
+  for (std::size_t e = 0; e < m; ++e) {
+    if (from[static_cast<std::size_t>(t.tet_slot[e])] >= 0) continue;
     for (const auto& ed : kTetEdges) {
       const auto a = static_cast<std::size_t>(w.tets[4 * e + ed[0]]), b = static_cast<std::size_t>(w.tets[4 * e + ed[1]]);
       if (a == b) continue;
       ++begin[a + 1];
       ++begin[b + 1];
     }
+  }
   for (std::size_t v = 0; v < n; ++v) begin[v + 1] += begin[v];
   std::vector<index_t> to(begin[n]);
   {
     std::vector<std::size_t> fill(begin.begin(), begin.end() - 1);
-    for (std::size_t e = 0; e < m; ++e)
+    for (std::size_t e = 0; e < m; ++e) {
+      if (from[static_cast<std::size_t>(t.tet_slot[e])] >= 0) continue;
       for (const auto& ed : kTetEdges) {
         const index_t a = w.tets[4 * e + ed[0]], b = w.tets[4 * e + ed[1]];
         if (a == b) continue;
         to[fill[static_cast<std::size_t>(a)]++] = b;
         to[fill[static_cast<std::size_t>(b)]++] = a;
       }
+    }
   }
   std::vector<std::size_t> distinct(n, 0);
   parallel_for(n, [&](std::size_t v, int) {
+    if (taken(v)) {
+      index_t shift = 0;
+      const std::size_t u = old_row(v, shift);
+      distinct[v] = before->edge_begin[u + 1] - before->edge_begin[u];
+      return;
+    }
     const auto first = to.begin() + static_cast<std::ptrdiff_t>(begin[v]);
     const auto last = to.begin() + static_cast<std::ptrdiff_t>(begin[v + 1]);
     std::sort(first, last);
     distinct[v] = static_cast<std::size_t>(std::unique(first, last) - first);
   });
-  // Rows moved down in place to their distinct entries (a row's new start is never after
-  // its old one).
+  // Each row's distinct entries, or its row taken from `before`, into an array of the
+  // exact size.
   t.edge_begin.assign(n + 1, 0);
-  for (std::size_t v = 0; v < n; ++v) {
-    t.edge_begin[v + 1] = t.edge_begin[v] + distinct[v];
-    std::copy(to.begin() + static_cast<std::ptrdiff_t>(begin[v]),
-              to.begin() + static_cast<std::ptrdiff_t>(begin[v] + distinct[v]),
-              to.begin() + static_cast<std::ptrdiff_t>(t.edge_begin[v]));
-  }
-  to.resize(t.edge_begin[n]);
-  to.shrink_to_fit();
-  t.edge_to = std::move(to);
+  for (std::size_t v = 0; v < n; ++v) t.edge_begin[v + 1] = t.edge_begin[v] + distinct[v];
+  t.edge_to.assign(t.edge_begin[n], 0);
+  parallel_for(n, [&](std::size_t v, int) {
+    index_t* out = t.edge_to.data() + t.edge_begin[v];
+    if (!taken(v)) {
+      std::copy_n(to.data() + begin[v], distinct[v], out);
+      return;
+    }
+    index_t shift = 0;
+    const std::size_t u = old_row(v, shift);
+    const index_t* row = before->edge_to.data() + before->edge_begin[u];
+    for (std::size_t q = 0; q < distinct[v]; ++q) out[q] = row[q] + shift;
+  });
+  std::vector<index_t>().swap(to);
   double length = 0;
   std::size_t pairs = 0;
   for (std::size_t a = 0; a < n; ++a)
@@ -191,9 +234,30 @@ void build_edges(const World& w, CollisionTopology& t) {
   t.mean_edge_length = pairs == 0 ? 0 : length / static_cast<double>(pairs);
 }
 
+bool contiguous(const std::vector<index_t>& list) {  // ascending and distinct
+  return list.empty() || static_cast<std::size_t>(list.back() - list.front()) + 1 == list.size();
+}
+
+bool numbered_alike(const ObjectInfo& a, const ObjectInfo& b) {
+  return a.object == b.object && !a.vertices.empty() && a.vertices.size() == b.vertices.size() &&
+         a.tets.size() == b.tets.size() && a.triangles.size() == b.triangles.size() && contiguous(a.vertices) &&
+         contiguous(b.vertices) && contiguous(a.tets) && contiguous(b.tets) && contiguous(a.triangles) &&
+         contiguous(b.triangles);
+}
+
 }  // namespace
 
-CollisionTopology build_collision_topology(const World& w) {
+std::vector<std::int32_t> matching_slots(const CollisionTopology& now, const CollisionTopology& before) {
+  std::vector<std::int32_t> from(now.objects.size(), -1);
+  std::size_t j = 0;  // both in ascending object order
+  for (std::size_t k = 0; k < now.objects.size(); ++k) {
+    while (j < before.objects.size() && before.objects[j].object < now.objects[k].object) ++j;
+    if (j < before.objects.size() && numbered_alike(now.objects[k], before.objects[j])) from[k] = static_cast<std::int32_t>(j);
+  }
+  return from;
+}
+
+CollisionTopology build_collision_topology(const World& w, const CollisionTopology* previous) {
   CollisionTopology t;
   const std::size_t n = w.n_local(), m = w.tets.size() / 4, s = w.triangles.size() / 3;
 
@@ -241,8 +305,10 @@ CollisionTopology build_collision_topology(const World& w) {
       if (t.surface[static_cast<std::size_t>(v)]) o.surface_vertices.push_back(v);
     o.thickness = principal_thickness(w.x.data(), o.vertices);
   }
-  build_edges(w, t);
-  build_faces(w, t);
+  const std::vector<std::int32_t> from =
+      previous ? matching_slots(t, *previous) : std::vector<std::int32_t>(t.objects.size(), -1);
+  build_edges(w, t, previous, from);
+  build_faces(w, t, previous, from);
   for (std::size_t e = 0; e < m; ++e)
     for (int c = 0; c < 4; ++c)
       if (t.surface[static_cast<std::size_t>(w.tets[4 * e + c])]) t.boundary_mask[e] |= static_cast<std::uint8_t>(16u << c);

@@ -57,7 +57,18 @@ struct CollisionTopology {
 };
 
 /// Builds the topology from the World's tets and triangles (positions: for the mean
-/// edge length and the objects' thickness only).
-CollisionTopology build_collision_topology(const World& w);
+/// edge length and the objects' thickness only). `previous`: the topology of an earlier
+/// World of the same scene (before a ghost-set change or a migration); the faces and
+/// edges of every object it held alike (matching_slots) are taken from it, moved to
+/// their new local indices, and only the others are built. The result is the same to the
+/// bit as without it.
+CollisionTopology build_collision_topology(const World& w, const CollisionTopology* previous = nullptr);
+
+/// Per slot of `now`, the slot of `before` that held the same object numbered alike up
+/// to a shift: the same numbers of vertices, tets and surface triangles, each list a
+/// contiguous range of local indices in both (World::append_object numbers an object
+/// from its mesh, the same way for an owner and a ghost, and the meshes never change
+/// during a run). -1: none; the object's pieces are built.
+std::vector<std::int32_t> matching_slots(const CollisionTopology& now, const CollisionTopology& before);
 
 }  // namespace softcontact::collide

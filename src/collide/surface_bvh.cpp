@@ -71,6 +71,10 @@ void SurfaceBvh::build(const double* x, const index_t* tri, const std::vector<in
   refit(x, tri);
 }
 
+void SurfaceBvh::shift_triangles(index_t by) {
+  for (index_t& r : order_) r += by;
+}
+
 namespace {
 // Centroid along `axis`, ties by triangle index: a strict total order.
 auto along(int axis) {

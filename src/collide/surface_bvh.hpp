@@ -36,6 +36,13 @@ public:
   /// Boxes at positions x (same triangles as build).
   void refit(const double* x, const index_t* tri);
   bool empty() const { return nodes_.empty(); }
+  /// The tree that build() gives for the same object with every triangle row moved by
+  /// `by` (a World built again with the object's triangles elsewhere): the split compares
+  /// centroids, then rows, and a common shift keeps the rows' order. The boxes are left
+  /// as they were; refit() before searching, as always.
+  void shift_triangles(index_t by);
+  /// The triangle rows in leaf order (the order a search meets them); for tests.
+  const std::vector<index_t>& leaf_order() const { return order_; }
 
   struct Hit {
     double t;                      ///< segment parameter in [0, 1]

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <random>
 #include <set>
+#include <string>
 #include <vector>
 
 #include "collide/collision_topology.hpp"
@@ -164,4 +165,98 @@ TEST(CollisionTopology, FaceNeighboursMatchASearchOverTheWholeWorld) {
   // interior, 2 with its triangle).
   EXPECT_GE(x.open, 3 + 4 * 2);
   expect_matches(broken, "triangles removed, a tet doubled");
+}
+
+namespace {
+
+// Every piece of two topologies, to the bit.
+void expect_same(const CollisionTopology& a, const CollisionTopology& b, const std::string& what) {
+  ASSERT_EQ(a.objects.size(), b.objects.size()) << what;
+  for (std::size_t k = 0; k < a.objects.size(); ++k) {
+    EXPECT_EQ(a.objects[k].object, b.objects[k].object) << what;
+    EXPECT_EQ(a.objects[k].vertices, b.objects[k].vertices) << what;
+    EXPECT_EQ(a.objects[k].surface_vertices, b.objects[k].surface_vertices) << what;
+    EXPECT_EQ(a.objects[k].tets, b.objects[k].tets) << what;
+    EXPECT_EQ(a.objects[k].triangles, b.objects[k].triangles) << what;
+    EXPECT_EQ(a.objects[k].thickness, b.objects[k].thickness) << what;
+  }
+  EXPECT_EQ(a.face_neighbour, b.face_neighbour) << what;
+  EXPECT_EQ(a.boundary_mask, b.boundary_mask) << what;
+  EXPECT_EQ(a.open_faces, b.open_faces) << what;
+  EXPECT_EQ(a.edge_begin, b.edge_begin) << what;
+  EXPECT_EQ(a.edge_to, b.edge_to) << what;
+  EXPECT_EQ(a.mean_edge_length, b.mean_edge_length) << what;
+  EXPECT_EQ(a.surface, b.surface) << what;
+  EXPECT_EQ(a.tri_begin, b.tri_begin) << what;
+  EXPECT_EQ(a.tri_of, b.tri_of) << what;
+}
+
+std::int64_t matched(const std::vector<std::int32_t>& from) {
+  return std::count_if(from.begin(), from.end(), [](std::int32_t j) { return j >= 0; });
+}
+
+}  // namespace
+
+// A detector rebuilt after a ghost-set change or a migration takes the faces and edges of
+// the objects that stayed from the topology before (build_collision_topology's
+// `previous`). Reference: the same World's topology built from nothing, and the search
+// over the whole world (expect_matches). Cases on 12 random objects over 3 ranks: rank 0's
+// ghost set changed (some ghosts kept at new local indices, some dropped, some new); rank
+// 1's World after rank 0's (owned objects that were ghosts, ghosts that were owned);
+// from a World whose objects were all held differently (a doubled tet, removed triangles:
+// nothing may be taken); and the whole world from itself.
+TEST(CollisionTopology, PiecesTakenFromAnEarlierWorldAreTheSameAsBuiltAgain) {
+  std::mt19937_64 g(78);
+  const std::string yaml = test::random_objects_yaml(g, 12);
+  const Scene s = load_scene_from_string(std::string(test::kMaterials) + "objects:\n" + yaml, "test.yaml");
+  const std::vector<int> ranks = block_partition(s, 3);
+  auto others = [&](int rank, int keep_every, int phase) {
+    std::vector<int> ghosts;
+    for (int o = 0; o < static_cast<int>(s.objects.size()); ++o)
+      if (ranks[static_cast<std::size_t>(o)] != rank && (o + phase) % keep_every != 0) ghosts.push_back(o);
+    return ghosts;
+  };
+  World w0 = build_world(s, ranks, 0);
+  set_ghost_objects(w0, s, others(0, 3, 0));  // objects 1, 2, 4, 5, ... of the other ranks
+  ASSERT_GE(w0.ghost_objects.size(), 4u);
+  const CollisionTopology before = build_collision_topology(w0);
+
+  World w0b = w0;
+  set_ghost_objects(w0b, s, others(0, 3, 1));  // drops some ghosts, adds others, keeps the rest
+  for (int threads : {1, 2, 3}) {
+    omp_set_num_threads(threads);
+    const CollisionTopology taken = build_collision_topology(w0b, &before);
+    const std::vector<std::int32_t> from = matching_slots(taken, before);
+    // Owned objects and the kept ghosts are taken (some at new local indices), new ghosts not.
+    EXPECT_GT(matched(from), static_cast<std::int64_t>(w0b.owned_objects.size()));
+    EXPECT_LT(matched(from), static_cast<std::int64_t>(from.size()));
+    expect_same(taken, build_collision_topology(w0b), "a changed ghost set, " + std::to_string(threads) + " threads");
+  }
+  omp_set_num_threads(1);
+  expect_matches(w0b, "a changed ghost set");
+
+  World w1 = build_world(s, ranks, 1);
+  set_ghost_objects(w1, s, others(1, 1000, 1));  // every object of the other ranks
+  {
+    const CollisionTopology taken = build_collision_topology(w1, &before);
+    EXPECT_GT(matched(matching_slots(taken, before)), 0);
+    expect_same(taken, build_collision_topology(w1), "another rank's World");
+  }
+
+  const World one = build_world(s, block_partition(s, 1), 0);
+  World broken = one;
+  broken.triangles.erase(broken.triangles.begin() + 3 * 10, broken.triangles.begin() + 3 * 11);
+  broken.tets.insert(broken.tets.end(), broken.tets.begin() + 4 * 5, broken.tets.begin() + 4 * 6);
+  const CollisionTopology whole = build_collision_topology(one);
+  {
+    const CollisionTopology taken = build_collision_topology(broken, &whole);
+    // Object 0 lost a triangle and holds a tet out of its range: not taken; the others are.
+    const std::vector<std::int32_t> from = matching_slots(taken, whole);
+    EXPECT_EQ(from[0], -1);
+    EXPECT_EQ(matched(from), static_cast<std::int64_t>(from.size()) - 1);
+    expect_same(taken, build_collision_topology(broken), "a World with a doubled tet");
+    const CollisionTopology back = build_collision_topology(one, &taken);
+    expect_same(back, whole, "the whole world from the broken one");
+  }
+  expect_same(build_collision_topology(one, &whole), whole, "the whole world from itself");
 }
