@@ -32,8 +32,10 @@ bool key_less(const FaceRecord& a, const FaceRecord& b) {
 // object's faces (the rebuild of every ghost set pays this). A run of two tet faces is
 // an interior face, a tet face with a triangle is a boundary face (with the run's first
 // triangle in key_less order); anything else (a face of three or more tets, a face
-// without either) is left open. Then per tet, bit j of the mask for each face with no
-// neighbour tet; and the faces left open counted.
+// without either) is left open. An object that `before` held numbered alike (`from`)
+// copies its entries from there instead, moved to its new tets and triangles. Then per
+// tet, bit j of the mask for each face with no neighbour tet; and the faces left open
+// counted.
 void build_faces(const World& w, CollisionTopology& t, const CollisionTopology* before,
                  const std::vector<std::int32_t>& from) {
   const std::size_t m = w.tets.size() / 4;
@@ -149,8 +151,10 @@ void build_faces(const World& w, CollisionTopology& t, const CollisionTopology* 
 // row is built from its tets directly: the other end of every tet edge at it (an edge
 // once per tet that has it), then sorted and made unique, rows in parallel (each writes
 // only its own). No sort of the whole world's edges (the rebuild of every ghost set pays
-// this). The mean length adds the edges (a, b), a < b, in ascending (a, b) order, row by
-// row: the order, and so the bits, of a sorted list of all pairs.
+// this). The vertices of an object that `before` held numbered alike (`from`) copy their
+// rows from there, moved to the new indices; their tets are skipped. The mean length
+// adds the edges (a, b), a < b, in ascending (a, b) order, row by row: the order, and so
+// the bits, of a sorted list of all pairs.
 void build_edges(const World& w, CollisionTopology& t, const CollisionTopology* before,
                  const std::vector<std::int32_t>& from) {
   const std::size_t n = w.n_local(), m = w.tets.size() / 4;
