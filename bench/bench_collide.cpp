@@ -23,10 +23,12 @@
 // the warm-up call each call only tests the kept pairs: the cost of the other steps).
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "softcontact/collision.hpp"
 #include "softcontact/primitives.hpp"
@@ -74,7 +76,7 @@ void place(Scene& s, const TetMesh& mesh, const std::array<double, 9>& r, const 
   s.objects.push_back(std::move(o));
 }
 
-World torus_pile(double spacing) {
+Scene torus_pile_scene(double spacing) {
   const TetMesh torus = make_torus(0.1, 0.04, 13, 2);
   Scene s = torus_scene();
   std::mt19937_64 g(20070601);
@@ -85,6 +87,11 @@ World torus_pile(double spacing) {
         const double c[3] = {i * spacing, j * spacing, k * spacing};
         place(s, torus, random_rotation(u1, u2, u3), c);
       }
+  return s;
+}
+
+World torus_pile(double spacing) {
+  const Scene s = torus_pile_scene(spacing);
   return build_world(s, block_partition(s, 1), 0);
 }
 
@@ -185,6 +192,43 @@ void BM_Collide_Build(benchmark::State& state) {
   state.counters["tets"] = static_cast<double>(w.tets.size() / 4);
 }
 
+// A detector built again after a ghost-set change (Simulator::follow_ghosts): rank 0 of
+// 2 of the pile owns its first 100 tori and ghosts tori 100-179; then 100-109 leave the
+// ghost set and 180-189 enter it (the 70 that stay move to new local indices). Timed: the
+// new detector, from the rest positions, built from nothing (_Built) or taking the
+// pieces of the 170 objects that stayed from the detector before (_Taken; that one built
+// untimed in each iteration, since the new one consumes it).
+struct GhostChange {
+  World before, after;
+  GhostChange() {
+    const Scene s = torus_pile_scene(kSpacing);
+    std::vector<int> two(s.objects.size(), 1);
+    std::fill(two.begin(), two.begin() + 100, 0);
+    before = build_world(s, two, 0);
+    after = before;
+    std::vector<int> g;
+    for (int k = 100; k < 180; ++k) g.push_back(k);
+    set_ghost_objects(before, s, g);
+    for (int& k : g) k += 10;
+    set_ghost_objects(after, s, g);
+  }
+};
+
+void rebuild(benchmark::State& state, bool taken) {
+  static const GhostChange c;
+  CollisionSettings set;
+  for (auto _ : state) {
+    CollisionDetector old(c.before, set, c.before.x.data());
+    const auto t0 = std::chrono::steady_clock::now();
+    CollisionDetector det(c.after, set, c.after.x.data(), nullptr, taken ? &old : nullptr);
+    state.SetIterationTime(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    benchmark::DoNotOptimize(&det);
+  }
+  state.counters["tets"] = static_cast<double>(c.after.tets.size() / 4);
+}
+void BM_Collide_Rebuild_Built(benchmark::State& state) { rebuild(state, false); }
+void BM_Collide_Rebuild_Taken(benchmark::State& state) { rebuild(state, true); }
+
 }  // namespace
 
 BENCHMARK(BM_Collide_Pile)->UseManualTime()->Unit(benchmark::kMillisecond);
@@ -197,5 +241,7 @@ BENCHMARK(BM_Collide_Pile_Self)->UseManualTime()->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Collide_Chains_Self)->UseManualTime()->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Collide_Chains_SelfEdges)->UseManualTime()->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Collide_Build)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Collide_Rebuild_Built)->UseManualTime()->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Collide_Rebuild_Taken)->UseManualTime()->Unit(benchmark::kMillisecond);
 
 BENCHMARK_MAIN();

@@ -731,9 +731,10 @@ void CollisionDetector::Impl::detect(const World& w, const double* x_start, std:
   }
   scan_positions(w, x_start, st);
   if (settings.self_collisions) {
-    culling.update(w.x.data(), topo, bad_vertex.data(), self_active, self_delta);
+    // A ghost's self-contact is its owner's: its points never meet its own tets here, and
+    // its fit to a rigid motion is not computed.
+    culling.update(w.x.data(), topo, bad_vertex.data(), owned.data(), self_active, self_delta);
     if (!settings.self_culling) self_active.assign(topo.objects.size(), 1);
-    // A ghost's self-contact is its owner's: its points never meet its own tets here.
     for (std::size_t k = 0; k < no; ++k) self_active[k] = owned[k] ? self_active[k] : 0;
     for (std::uint8_t a : self_active) st.self_objects += a;
   } else {

@@ -141,11 +141,16 @@ void SelfCulling::compute(const World& w, const CollisionTopology& topo, const s
 }
 
 void SelfCulling::update(const double* x, const CollisionTopology& topo, const std::uint8_t* bad_vertex,
-                         std::vector<std::uint8_t>& active, std::vector<double>& delta) const {
+                         const std::uint8_t* tested, std::vector<std::uint8_t>& active,
+                         std::vector<double>& delta) const {
   const std::size_t no = topo.objects.size();
   active.assign(no, 1);
   delta.assign(no, std::numeric_limits<double>::infinity());
   parallel_for_dynamic(no, [&](std::size_t k, int) {
+    if (tested && !tested[k]) {
+      active[k] = 0;
+      return;
+    }
     const ObjectInfo& o = topo.objects[k];
     if (o.vertices.empty() || !(gap_[k] > 0)) return;
     V3 c{0, 0, 0}, C{0, 0, 0};

@@ -33,9 +33,12 @@ public:
   /// takes that gap less a rounding margin (SelfGapCache); the others' are computed (one
   /// copy per entry) and added to it.
   void build(const World& w, const CollisionTopology& topo, const double* x_ref, SelfGapCache* known = nullptr);
-  /// active[k] = 1 when object slot k can be in self-contact at positions x.
+  /// active[k] = 1 when object slot k can be in self-contact at positions x. `tested`
+  /// (per slot; null: all): the slots to look at; the others get active 0 and delta
+  /// infinity without a look (a ghost's self-contact is its owner's: on a rank that
+  /// ghosts most of its neighbours, most slots).
   void update(const double* x, const CollisionTopology& topo, const std::uint8_t* bad_vertex,
-              std::vector<std::uint8_t>& active, std::vector<double>& delta) const;
+              const std::uint8_t* tested, std::vector<std::uint8_t>& active, std::vector<double>& delta) const;
   double gap(std::size_t slot) const { return gap_[slot]; }
 
 private:

@@ -376,6 +376,49 @@ TEST(CollisionDetector, SelfGapCacheGivesTheComputedGaps) {
   expect_cache_changes_no_record(w, rest.data(), 0.2, 21, cache);
 }
 
+// The culling's per-step look at each object (SelfCulling::update) with a mask of the
+// slots to test, as the detector passes its owned objects (a ghost's self-contact is its
+// owner's). Reference: the same call without a mask. A tested slot gets the same flag
+// and distance to the bit; a slot left out is inactive with an infinite distance. Half
+// the objects are jittered (they can fold), half only moved rigidly (they cannot), and
+// both kinds are among the tested and the untested slots.
+TEST(CollisionDetector, SelfCullingLooksOnlyAtTheTestedSlots) {
+  World w = random_scene(22, 8, 0.0);
+  const std::vector<double> rest = w.x;
+  const collide::CollisionTopology topo = collide::build_collision_topology(w);
+  collide::SelfCulling culling;
+  culling.build(w, topo, rest.data());
+  std::mt19937_64 g(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const std::size_t no = topo.objects.size();
+  for (std::size_t k = 0; k < no; ++k)
+    for (index_t v : topo.objects[k].vertices)
+      for (std::size_t d = 0; d < 3; ++d) {
+        double& c = w.x[3 * static_cast<std::size_t>(v) + d];
+        c += (k / 2) % 2 ? 0.2 * u(g) : 0.5;  // slots 2, 3, 6, 7 jittered; the others shifted
+      }
+  const std::vector<std::uint8_t> bad(w.n_local(), 0);
+  std::vector<std::uint8_t> tested(no, 0), all_active, active;
+  for (std::size_t k = 0; k < no; k += 2) tested[k] = 1;
+  std::vector<double> all_delta, delta;
+  culling.update(w.x.data(), topo, bad.data(), nullptr, all_active, all_delta);
+  culling.update(w.x.data(), topo, bad.data(), tested.data(), active, delta);
+  ASSERT_EQ(active.size(), no);
+  int kinds[2][2] = {{0, 0}, {0, 0}};  // [tested][active without a mask]
+  for (std::size_t k = 0; k < no; ++k) {
+    ++kinds[tested[k]][all_active[k]];
+    if (tested[k]) {
+      EXPECT_EQ(active[k], all_active[k]) << "slot " << k;
+      EXPECT_EQ(delta[k], all_delta[k]) << "slot " << k;
+    } else {
+      EXPECT_EQ(active[k], 0) << "slot " << k;
+      EXPECT_EQ(delta[k], std::numeric_limits<double>::infinity()) << "slot " << k;
+    }
+  }
+  for (int t = 0; t < 2; ++t)
+    for (int a = 0; a < 2; ++a) EXPECT_GT(kinds[t][a], 0) << "tested " << t << ", active " << a;
+}
+
 // The smallest distance from a surface vertex of slot k to a tet of the same object that
 // shares no vertex with its star, over every such pair (no grid, no cap): the true gap
 // that the culling's gap must not exceed (inside a tet: 0; else the nearest face).
