@@ -120,8 +120,9 @@ void SerialStepper::make_detector() {
     const auto j = static_cast<std::size_t>(world_.vertex_gid[i] - world_.layout[static_cast<std::size_t>(k)].vertex_begin);
     for (std::size_t d = 0; d < 3; ++d) rest[3 * i + d] = m.points[3 * j + d];
   }
-  // The detector of the World before (a ghost-set change, a migration) gives the pieces
-  // of the objects that stayed.
+  // After a ghost-set change the detector of the World before gives the pieces of the
+  // objects that stayed. A migration makes a new stepper, which has no detector before
+  // (Simulator::migrate releases the old one first, for the migration's peak memory).
   detector_ = std::make_unique<CollisionDetector>(world_, settings_, rest.data(), &gaps_, detector_.get());
   if (!settings_.edge_contacts) detector_->delegate(delegated_);
 }
