@@ -27,7 +27,9 @@ if [ $extended -eq 1 ]; then
   # scenes.tori200 and scenes.chess500 (to t = 0.5 s, for 'bash tools/test.sh -L scenes')
   # are the first part of scenes.*.whole, whose in-run check covers it with the same depth
   # bounds (chess500's speed bound is 5.1 to 0.5 s, 5.8 whole): not run twice here.
-  set -- -L 'sanitize|scenes|long|extended' -LE render -E '^scenes[.](tori200|chess500)$' "$@"
+  # scenes.archway's 10 s run is long.ArchwayLong's too, which checks it as --verify-every
+  # 50 does, with the same bounds (tests/scenes/long_test_archway.cpp): run once here.
+  set -- -L 'sanitize|scenes|long|extended' -LE render -E '^scenes[.](tori200|chess500|archway)$' "$@"
 elif [ $# -eq 0 ]; then
   set -- -LE 'sanitize|scenes|long|extended|render'
 fi

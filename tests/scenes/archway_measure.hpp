@@ -19,6 +19,7 @@
 #include "softcontact/diagnostics.hpp"
 #include "softcontact/scene.hpp"
 #include "softcontact/simulator.hpp"
+#include "softcontact/verify.hpp"
 
 namespace softcontact::archway_test {
 
@@ -143,12 +144,20 @@ struct StandingRun {
   double collapsed_at = -1;         // when the keystone fell past half the rise [s], or -1
   std::size_t stones = 0;
   bool found_keystone = false;
+  // With a check every N steps (run_standing's verify_every > 0): the check of
+  // `softcontact verify` (Simulator::verify, as `softcontact run --verify-every N`) at
+  // step 0, every N-th step and the last one; its maxima, and the last check's inverted
+  // tets (-1: no check).
+  VerifyMaxima checks;
+  std::int64_t last_inverted = -1;
 };
 
 /// Runs the scene at `path` (the arch of inputs/archway.yaml) from rest for `seconds` of
 /// simulated time (all of its end_time when infinite), sampling the stones' poses 100
-/// times per second; stops early once the keystone has fallen past half the rise.
-inline StandingRun run_standing(const std::string& path, double seconds) {
+/// times per second; stops early once the keystone has fallen past half the rise. With
+/// `verify_every` > 0, also the check of `softcontact verify` at step 0, every
+/// `verify_every` steps and the last step (StandingRun::checks).
+inline StandingRun run_standing(const std::string& path, double seconds, std::int64_t verify_every = 0) {
   const auto t0 = std::chrono::steady_clock::now();
   const Scene scene = load_scene(path);
   Simulator s(MPI_COMM_WORLD, scene);
@@ -169,11 +178,21 @@ inline StandingRun run_standing(const std::string& path, double seconds) {
   int measured = 0;
   std::vector<std::array<double, 3>> early(arch.size()), late(arch.size());
   int n_early = 0, n_late = 0;
+  VerifyFrame checked;
+  std::int64_t checked_step = -1;
+  auto check = [&](std::int64_t k) {
+    checked = s.verify(true);
+    checked_step = k;
+    r.checks.add(checked);
+    r.last_inverted = checked.inverted;
+  };
+  if (verify_every > 0) check(0);
   for (std::int64_t k = 1; k <= steps; ++k) {
     s.step();
+    if (verify_every > 0 && k % verify_every == 0) check(k);
     if (k % measure_every == 0) {
       StepDiagnostics d;
-      s.measure(d);
+      s.measure(d, checked_step == k ? &checked : nullptr);
       r.worst_residual = std::max(r.worst_residual, d.residual_penetration);
       r.contacts += static_cast<double>(d.contacts);
       ++measured;
@@ -194,8 +213,10 @@ inline StandingRun run_standing(const std::string& path, double seconds) {
     n_late += in_late;
     if (r.worst_drop > 0.5 * h) {  // collapsed: no point in running on
       r.collapsed_at = t;
+      if (verify_every > 0 && checked_step != k) check(k);
       break;
     }
+    if (verify_every > 0 && k == steps && checked_step != k) check(k);
   }
   if (n_early && n_late) {
     r.worst_drift = 0;
@@ -232,6 +253,24 @@ inline void expect_stands(const StandingRun& r) {
   EXPECT_LT(r.worst_angle, 10.0);
   EXPECT_GE(r.drift_span, 0.99) << "the run is too short to measure a creep";
   EXPECT_LT(r.worst_drift, 0.25e-3 * r.drift_span);
+}
+
+/// Prints the in-run checks of a run with verify_every > 0 and holds them to the bounds
+/// of a `softcontact verify` run: the deepest surface vertex inside another body
+/// (`max_depth` median edges) and the fastest vertex (`max_speed_ratio` x v_ff) at every
+/// check, `max_inverted` inverted tets at the last one.
+inline void expect_contact_within(const StandingRun& r, double max_depth, double max_speed_ratio,
+                                  std::int64_t max_inverted) {
+  ASSERT_GT(r.checks.checks, 0) << "no in-run check";
+  std::printf("[measured] in-run checks: %lld; deepest surface vertex %.3g median edges (step %lld); fastest "
+              "vertex %.3g x v_ff (step %lld); inverted tets at most %.0f, at the last check %lld\n",
+              static_cast<long long>(r.checks.checks), r.checks.surface_depth.value,
+              static_cast<long long>(r.checks.surface_depth.step), r.checks.speed_ratio.value,
+              static_cast<long long>(r.checks.speed_ratio.step), r.checks.inverted.value,
+              static_cast<long long>(r.last_inverted));
+  EXPECT_LE(r.checks.surface_depth.value, max_depth);
+  EXPECT_LE(r.checks.speed_ratio.value, max_speed_ratio);
+  EXPECT_LE(r.last_inverted, max_inverted);
 }
 
 }  // namespace softcontact::archway_test
