@@ -11,10 +11,14 @@
 #   2. the set-up at fixed work per rank: one chess500 container per rank
 #      (tools/gen_weak_chess.py), `bench --steps 1` on each of WEAK_RANKS, TRIALS rounds;
 #      bench's setup_s is the Simulator's construction (the slowest rank). Done-when 3:
-#      it does not grow with the rank count.
-# and writes OUT_DIR/soft_floor.csv and OUT_DIR/weak_setup.csv (softcontact bench --csv,
-# with the variant as the scene file's name) and OUT_DIR/summary.md: medians per case,
-# the ratios within each round, and whether each Done-when is met on this node.
+#      it does not grow with the rank count. As a control, in each round and for each
+#      of WEAK_RANKS from 2 up to the cores, as many one-rank runs of one container at
+#      once, one per core (taskset), with no MPI between them: the growth the node's
+#      shared caches and memory cause by themselves, told apart from the code's;
+# and writes OUT_DIR/soft_floor.csv, OUT_DIR/weak_setup.csv and OUT_DIR/weak_side.csv
+# (softcontact bench --csv, with the variant as the scene file's name) and
+# OUT_DIR/summary.md: medians per case, the ratios within each round, and whether each
+# Done-when is met on this node.
 # Runs on fewer cores are oversubscribed (a warning is printed): their times mean little.
 #
 # Usage: bash tools/scaling_check.sh
@@ -48,7 +52,7 @@ for v in $pairs $warmup $steps $trials $ranks_list $weak_list; do
     { echo "scaling_check: '$v' is not a positive whole number (RANKS, PAIRS, WARMUP, STEPS, WEAK_RANKS, TRIALS)" >&2; exit 2; }
 done
 mkdir -p "$out"
-rm -f "$out/soft_floor.csv" "$out/weak_setup.csv" "$out/summary.md"
+rm -f "$out/soft_floor.csv" "$out/weak_setup.csv" "$out/weak_side.csv" "$out/summary.md"
 
 # mpirun for R ranks: bound to cores when they fit, oversubscribed (with a warning) when not.
 launch() {
@@ -84,11 +88,42 @@ done
 for r in $weak_list; do
   python3 "$root/tools/gen_weak_chess.py" "$r" "$out/weak$r.yaml" >/dev/null
 done
+# The control: R one-rank runs of one container at once, each on a core of its own, no MPI
+# between them (sideR.yaml is weak1.yaml under another name). What their slowest set-up
+# adds to one rank alone is the node's (shared caches, memory bandwidth, page faults);
+# what the R-rank run adds to that is the code's.
+side_counts=""
+for r in $weak_list; do
+  if [ "$r" -gt 1 ] && [ "$r" -le "$cores" ]; then
+    side_counts="$side_counts $r"
+    cp "$out/weak1.yaml" "$out/side$r.yaml"
+  fi
+done
+# R copies of bench at once (logical CPU i for copy i, as nproc counts them), their rows
+# appended to weak_side.csv in copy order once all have ended.
+side_by_side() {
+  local r=$1 i pids=()
+  for i in $(seq 0 $((r - 1))); do
+    rm -f "$out/side_run$i.csv"
+    taskset -c "$i" "$exe" bench "$out/side$r.yaml" --steps 1 --quiet --csv "$out/side_run$i.csv" >/dev/null &
+    pids+=($!)
+  done
+  for i in "${pids[@]}"; do wait "$i"; done
+  for i in $(seq 0 $((r - 1))); do
+    [ -f "$out/weak_side.csv" ] || head -n 1 "$out/side_run$i.csv" >"$out/weak_side.csv"
+    tail -n +2 "$out/side_run$i.csv" >>"$out/weak_side.csv"
+    rm -f "$out/side_run$i.csv"
+  done
+}
 for t in $(seq "$trials"); do
   for r in $weak_list; do
     echo "set-up: $r ranks, round $t"
     launch "$r" "$exe" bench "$out/weak$r.yaml" --steps 1 --quiet --csv "$out/weak_setup.csv" >/dev/null
   done
+  for r in $side_counts; do
+    echo "set-up: $r one-rank runs side by side, round $t"
+    side_by_side "$r"
+  done
 done
 
-python3 "$root/tools/scaling_summary.py" "$out/soft_floor.csv" "$out/weak_setup.csv" "$cores" | tee "$out/summary.md"
+python3 "$root/tools/scaling_summary.py" "$out/soft_floor.csv" "$out/weak_setup.csv" "$cores" "$out/weak_side.csv" | tee "$out/summary.md"

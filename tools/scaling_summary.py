@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
 """Summary of tools/scaling_check.sh's runs as markdown (standard library only).
 
-Usage: python3 tools/scaling_summary.py SOFT_FLOOR.csv WEAK_SETUP.csv CORES
+Usage: python3 tools/scaling_summary.py SOFT_FLOOR.csv WEAK_SETUP.csv CORES [WEAK_SIDE.csv]
 
 SOFT_FLOOR.csv: `softcontact bench --csv` rows of the soft floor's variants, whose scene
 files are named soft_floor_<variant>.yaml (split, forces, whole), in rounds: the k-th run
 of each variant at a rank count belongs to round k. WEAK_SETUP.csv: rows of one chess
 container per rank (weakN.yaml). CORES: the node's cores (runs with more ranks are marked
-oversubscribed). Either file may be missing (that part is skipped).
+oversubscribed). WEAK_SIDE.csv: the control, one-rank runs of one container started N at
+once (sideN.yaml), N rows per round in a row. Any file may be missing (that part is
+skipped).
 
 Issue 19's criteria, as checked here:
 - Done-when 2, at 4 ranks: "split" faster than "whole" (steps per second) in every round,
@@ -15,7 +17,11 @@ Issue 19's criteria, as checked here:
   mean of the ranks) under 1.1 in every round.
 - Done-when 3: the median set-up at the largest rank count is no more than the largest
   set-up of one rank over the rounds (the growth is within the run-to-run spread).
+  With the control, the growth at N ranks is split in two: the node's (the median over
+  the rounds of the slowest of the N side-by-side runs, less one rank's median) and the
+  code's (the N-rank median less that). Reported, not part of the verdict.
 """
+import re
 import csv
 import os
 import statistics
@@ -92,7 +98,17 @@ def soft_floor(rows, cores, out):
                    f"{'; oversubscribed, so not a measurement' if 4 > cores else ''}).\n")
 
 
-def weak_setup(rows, cores, out):
+def side_by_side(rows):
+    """{N: [slowest set-up of each round]} from the control's rows (N rows per round)."""
+    runs = {}
+    for r in rows:
+        m = re.fullmatch(r"side(\d+)", os.path.splitext(os.path.basename(r["path"]))[0])
+        if m:
+            runs.setdefault(int(m.group(1)), []).append(float(r.get("read_s") or 0) + float(r["setup_s"]))
+    return {n: [max(v[i:i + n]) for i in range(0, len(v) - n + 1, n)] for n, v in runs.items()}
+
+
+def weak_setup(rows, cores, out, side_rows=()):
     if not rows:
         return
     out.append("## Set-up at fixed work per rank\n")
@@ -121,16 +137,35 @@ def weak_setup(rows, cores, out):
                f"({fmt(statistics.median(by[last]))} s against {fmt(base)} s, "
                f"{fmt(100 * (statistics.median(by[last]) / base - 1), 1)} %"
                f"{'; oversubscribed, so not a measurement' if not real else ''}).\n")
+    side = side_by_side(side_rows)
+    if not side:
+        return
+    out.append(f"The control: N one-rank runs of one container at once, one per core, no MPI between them; "
+               f"each round's slowest set-up. Growth over {ranks[0]} rank(s)' median ({fmt(base)} s): the node's "
+               "is the control's, the code's is the rest.\n")
+    out.append("| ranks | rounds | side by side s (median) | N ranks s (median) | the node's growth | the code's growth |")
+    out.append("| ---: | ---: | ---: | ---: | ---: | ---: |")
+    for n in sorted(side):
+        c = statistics.median(side[n])
+        node = c - base
+        if n in by:
+            m = statistics.median(by[n])
+            code = f"{fmt(m - c)} s ({fmt(100 * (m - c) / base, 1)} %)"
+            mid = fmt(m)
+        else:
+            code, mid = "-", "-"
+        out.append(f"| {n} | {len(side[n])} | {fmt(c)} | {mid} | {fmt(node)} s ({fmt(100 * node / base, 1)} %) | {code} |")
+    out.append("")
 
 
 def main():
-    if len(sys.argv) != 4:
+    if len(sys.argv) not in (4, 5):
         sys.stderr.write(__doc__)
         sys.exit(2)
     cores = int(sys.argv[3])
     out = [f"# Issue 19 scaling check ({cores} cores)\n"]
     soft_floor(rows_of(sys.argv[1]), cores, out)
-    weak_setup(rows_of(sys.argv[2]), cores, out)
+    weak_setup(rows_of(sys.argv[2]), cores, out, rows_of(sys.argv[4]) if len(sys.argv) == 5 else [])
     print("\n".join(out))
 
 

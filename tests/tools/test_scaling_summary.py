@@ -10,6 +10,10 @@ difference. Reference values, worked by hand from the rows below:
   0.22 s: medians 0.21 and 0.22, the 8-rank median (0.22) = the largest one-rank
   set-up (0.22): met (+4.8 %); with the 8-rank runs 0.05 s slower (median 0.27), not
   met (+28.6 %).
+- the control: 8 one-rank runs side by side, 3 rounds whose slowest set-ups are 0.22,
+  0.23 and 0.21 s (the other seven runs 0.20 s): median 0.22 s, so the node's growth is
+  0.22 - 0.21 = 0.010 s (4.8 % of one rank's 0.21) and, with the 8-rank median at 0.27,
+  the code's is 0.27 - 0.22 = 0.050 s (23.8 %). No control file: no control table.
 """
 import csv
 import os
@@ -47,12 +51,23 @@ def setup_rows(extra):
     return rows
 
 
-def summary(tools, work, floor, setup, cores=16):
-    a, b = os.path.join(work, "floor.csv"), os.path.join(work, "setup.csv")
+def side_rows():
+    rows = []
+    for slowest in (0.21, 0.22, 0.20):  # setup_s of the slowest; read_s 0.01 on every row
+        for i in range(8):
+            rows.append({"path": "/x/side8.yaml", "ranks": 1, "setup_s": slowest if i == 3 else 0.19, "read_s": 0.01})
+    return rows
+
+
+def summary(tools, work, floor, setup, cores=16, side=None):
+    a, b, c = (os.path.join(work, n) for n in ("floor.csv", "setup.csv", "side.csv"))
     write(a, floor)
     write(b, setup)
-    return subprocess.run([sys.executable, os.path.join(tools, "scaling_summary.py"), a, b, str(cores)],
-                          check=True, capture_output=True, text=True).stdout
+    args = [sys.executable, os.path.join(tools, "scaling_summary.py"), a, b, str(cores)]
+    if side is not None:
+        write(c, side)
+        args.append(c)
+    return subprocess.run(args, check=True, capture_output=True, text=True).stdout
 
 
 def expect(text, want):
@@ -75,6 +90,12 @@ def main():
     s = summary(tools, work, floor_rows([120.0, 116.0, 130.0], [1.05, 1.06, 1.07]), setup_rows(0.05))
     expect(s, "compute imbalance under 1.1): met (faster in every round: yes")
     expect(s, ": not met (0.270 s against 0.210 s, 28.6 %).")
+    if "The control" in s:
+        print(f"no control file, yet a control table:\n{s}")
+        sys.exit(1)
+    s = summary(tools, work, floor_rows([120.0, 116.0, 130.0], [1.05, 1.06, 1.07]), setup_rows(0.05), side=side_rows())
+    expect(s, ": not met (0.270 s against 0.210 s, 28.6 %).")
+    expect(s, "| 8 | 3 | 0.220 | 0.270 | 0.010 s (4.8 %) | 0.050 s (23.8 %) |")
     s = summary(tools, work, floor_rows([120.0, 116.0, 130.0], [1.05, 1.12, 1.07]), setup_rows(0.0))
     expect(s, "not met (faster in every round: yes; imbalance under 1.1 in every split run: no).")
     s = summary(tools, work, floor_rows([120.0, 116.0, 130.0], [1.05, 1.06, 1.07]), setup_rows(0.0), cores=2)
