@@ -96,6 +96,7 @@ side_counts=""
 for r in $weak_list; do
   if [ "$r" -gt 1 ] && [ "$r" -le "$cores" ]; then
     side_counts="$side_counts $r"
+    [ -f "$out/weak1.yaml" ] || python3 "$root/tools/gen_weak_chess.py" 1 "$out/weak1.yaml" >/dev/null
     cp "$out/weak1.yaml" "$out/side$r.yaml"
   fi
 done

@@ -21,9 +21,9 @@ Issue 19's criteria, as checked here:
   the rounds of the slowest of the N side-by-side runs, less one rank's median) and the
   code's (the N-rank median less that). Reported, not part of the verdict.
 """
-import re
 import csv
 import os
+import re
 import statistics
 import sys
 
@@ -138,7 +138,7 @@ def weak_setup(rows, cores, out, side_rows=()):
                f"{fmt(100 * (statistics.median(by[last]) / base - 1), 1)} %"
                f"{'; oversubscribed, so not a measurement' if not real else ''}).\n")
     side = side_by_side(side_rows)
-    if not side:
+    if not side or ranks[0] != 1:  # the control is measured against one rank alone
         return
     out.append(f"The control: N one-rank runs of one container at once, one per core, no MPI between them; "
                f"each round's slowest set-up. Growth over {ranks[0]} rank(s)' median ({fmt(base)} s): the node's "
